@@ -1,0 +1,145 @@
+"""Cross-field rules: values that are each in range but cannot work together.
+
+Each rule raises :class:`ScenarioError` naming the key a user would change.
+"""
+
+from __future__ import annotations
+
+from chiptwin.config.fields import ScenarioError
+from chiptwin.config.schema import Scenario
+from chiptwin.constants import Q_E
+
+BASES = frozenset("ACGT")
+
+#: Fidelity levels that exist. Others are refused at validation time, not half-run.
+BUILT_LEVELS: dict[str, tuple[str, ...]] = {
+    "kinetics": ("closed_form",),
+    "photons": ("expected", "binned"),
+    "optics": ("na2", "psf"),
+    "dsp": ("float",),
+}
+
+
+def check_consistency(s: Scenario) -> None:
+    """Run every cross-field rule on a built scenario."""
+    for rule in (_fidelity, _assay, _sites, _optics, _timing, _adc_range, _memory, _duration):
+        rule(s)
+
+
+def _fail(s: Scenario, key: str, value: object, allowed: str) -> None:
+    raise ScenarioError(s.source, key, value, allowed)
+
+
+def _fidelity(s: Scenario) -> None:
+    levels = {**{f: getattr(s.run.fidelity, f) for f in BUILT_LEVELS}, "dsp": s.dsp_level}
+    for stage, level in levels.items():
+        if level not in BUILT_LEVELS[stage]:
+            key = "chip.dsp.mode" if stage == "dsp" and not s.run.fidelity.dsp else (
+                f"run.fidelity.{stage}")
+            _fail(s, key, level, f"level not built yet; built: {', '.join(BUILT_LEVELS[stage])}")
+    if s.run.fidelity.dsp and s.run.fidelity.dsp != s.chip.dsp.mode != "float":
+        _fail(s, "run.fidelity.dsp", s.run.fidelity.dsp,
+              f"contradicts chip.dsp.mode = {s.chip.dsp.mode!r}; set one of them")
+
+
+def _assay(s: Scenario) -> None:
+    a = s.assay
+    if a.kind != "pyrosequencing":
+        return
+    for key, text in (("template", a.template), ("flow_order", a.flow_order)):
+        if not text or set(text) - BASES:
+            _fail(s, f"assay.{key}", text, "must be a non-empty string of A, C, G, T")
+    if set(a.key) - BASES or not a.template.startswith(a.key) or not a.key:
+        _fail(s, "assay.key", a.key, f"must be a non-empty prefix of the template {a.template!r}")
+
+
+def _sites(s: Scenario) -> None:
+    at = s.sites.at_pixels
+    if isinstance(at, str):
+        if at not in ("all", "centre"):
+            _fail(s, "sites.at_pixels", at, 'must be "all", "centre" or a list of [row, col]')
+        return
+    rows, cols = s.chip.rows, s.chip.cols
+    seen = set()
+    for rc in at:
+        ok = isinstance(rc, list) and len(rc) == 2 and all(type(v) is int for v in rc)
+        if not ok or not (0 <= rc[0] < rows and 0 <= rc[1] < cols) or tuple(rc) in seen:
+            _fail(s, "sites.at_pixels", rc,
+                  f"each entry must be a distinct [row, col] with 0 ≤ row < {rows}, 0 ≤ col < {cols}")
+        seen.add(tuple(rc))
+    if not seen:
+        _fail(s, "sites.at_pixels", at, "must name at least one pixel")
+
+
+def _optics(s: Scenario) -> None:
+    o = s.optics
+    if o.coupling == "lens":
+        for key in ("aperture_diameter_um", "object_distance_um"):
+            if getattr(o, key) <= 0:
+                _fail(s, f"optics.{key}", getattr(o, key), "must be > 0 with lens coupling")
+        if s.run.fidelity.optics == "psf":
+            _fail(s, "run.fidelity.optics", "psf", 'the psf level models contact coupling; use "na2"')
+    if s.sites.footprint_radius_um > s.chip.pitch_um:
+        _fail(s, "sites.footprint_radius_um", s.sites.footprint_radius_um,
+              f"must not exceed the pixel pitch {s.chip.pitch_um:g} µm")
+    px = s.chip.pixel
+    if max(px.diode_w_um, px.diode_h_um) > s.chip.pitch_um:
+        _fail(s, "chip.pitch_um", s.chip.pitch_um,
+              f"must be ≥ the diode size {max(px.diode_w_um, px.diode_h_um):g} µm")
+
+
+def _timing(s: Scenario) -> None:
+    t = s.chip.timing
+    busy = s.chip.readout_time_s + t.t_int_s
+    if busy > t.frame_period_s:
+        _fail(s, "chip.timing.frame_period_s", t.frame_period_s,
+              f"must be ≥ reset + integration + {s.chip.samples_per_frame} conversions "
+              f"= {busy:.6g} s (t_int_s {t.t_int_s:g} s, one conversion "
+              f"{s.chip.adc.conversion_time_s:.3g} s)")
+
+
+def _adc_range(s: Scenario) -> None:
+    adc, px = s.chip.adc, s.chip.pixel
+    if adc.v_max_V <= adc.v_min_V:
+        _fail(s, "chip.adc.v_max_V", adc.v_max_V, f"must be > v_min_V = {adc.v_min_V:g} V")
+    if not adc.v_min_V <= px.pedestal_V < adc.v_max_V:
+        _fail(s, "chip.pixel.pedestal_V", px.pedestal_V,
+              f"must lie in the ADC range [{adc.v_min_V:g}, {adc.v_max_V:g}) V")
+    full_well_V = px.pedestal_V + px.full_well_e * Q_E / (px.capacitance_fF * 1e-15)
+    if full_well_V > adc.v_max_V and not adc.range_below_full_well_ok:
+        _fail(s, "chip.adc.v_max_V", adc.v_max_V,
+              f"is below the full-well voltage {full_well_V:.4g} V (pedestal + full_well_e·q/C); "
+              "raise it, or set chip.adc.range_below_full_well_ok = true if clipping is intended")
+    if s.chip.memory.word_bits < adc.bits:
+        _fail(s, "chip.memory.word_bits", s.chip.memory.word_bits,
+              f"must hold an ADC code: ≥ chip.adc.bits = {adc.bits}")
+
+
+def _memory(s: Scenario) -> None:
+    """The DSP reads blocks of frames from memory: the dark block, then blocks of N."""
+    c = s.chip
+    block = max(c.dsp.n_dark_frames, c.dsp.average_frames)
+    dark_ref_bits = c.memory.word_bits * c.n_pixels
+    needed = block * c.frame_bits + dark_ref_bits
+    if c.memory.capacity_bits < needed:
+        _fail(s, "chip.memory.capacity_bits", c.memory.capacity_bits,
+              f"must be ≥ {needed} bits: a block of {block} frames × {c.frame_bits} bits "
+              f"(word × pixels × {c.samples_per_frame} samples) + the dark reference "
+              f"{dark_ref_bits} bits")
+
+
+def _duration(s: Scenario) -> None:
+    c, a = s.chip, s.assay
+    dark_s = c.dsp.n_dark_frames * c.timing.frame_period_s
+    if a.start_s < dark_s:
+        _fail(s, "assay.start_s", a.start_s,
+              f"must be ≥ {dark_s:g} s: the {c.dsp.n_dark_frames} dark frames come before light")
+    need = a.start_s + c.dsp.average_frames * c.timing.frame_period_s
+    if a.kind == "pyrosequencing":
+        need = a.start_s + a.n_flows * a.flow_period_s
+        if (a.flow_period_s / c.timing.frame_period_s) % c.dsp.average_frames:
+            _fail(s, "chip.dsp.average_frames", c.dsp.average_frames,
+                  "must divide the frames per flow (flow_period_s / frame_period_s) so that "
+                  "averaged frames do not straddle flows")
+    if s.run.duration_s < need:
+        _fail(s, "run.duration_s", s.run.duration_s, f"must be ≥ {need:g} s for this assay")

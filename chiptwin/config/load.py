@@ -1,0 +1,133 @@
+"""Read a scenario TOML file, apply ``--set`` overrides, and build the validated :class:`Scenario`.
+
+Overrides go into the raw table before validation, so ``--set chip.adc.bits=40`` meets exactly the
+checks a file saying ``bits = 40`` would.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import tomllib
+import typing
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+from chiptwin.config.consistency import check_consistency
+from chiptwin.config.fields import ScenarioError, check_value
+from chiptwin.config.schema import ASSAY_COMMON_KEYS, ASSAY_KIND_KEYS, Scenario
+
+REQUIRED_SECTIONS = ("scenario", "assay", "run")
+
+
+def load_scenario(
+    path: str | Path, overrides: Iterable[str] = (), seed: int | None = None
+) -> Scenario:
+    """Load and validate a scenario file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file.
+    overrides : iterable of str
+        ``"section.key=value"`` strings; the value is read as TOML (``12``, ``1e-3``, ``"x"``,
+        ``true``), falling back to a bare string.
+    seed : int, optional
+        Replaces ``scenario.seed``.
+
+    Raises
+    ------
+    ScenarioError
+        Naming the file, the key, the value and what is allowed.
+    """
+    source = str(path)
+    raw = read_toml(path)
+    for text in overrides:
+        apply_override(raw, text, source)
+    if seed is not None:
+        raw.setdefault("scenario", {})["seed"] = seed
+    return scenario_from_dict(raw, source)
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """Parse a TOML file; unreadable or malformed files are :class:`ScenarioError`."""
+    source = str(path)
+    try:
+        text = Path(path).read_bytes().decode("utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(source, "(file)", source, f"must be a readable UTF-8 file ({exc})")
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(source, "(file)", source, f"must be valid TOML ({exc})") from None
+
+
+def apply_override(raw: dict[str, Any], text: str, source: str) -> None:
+    """Set ``a.b.c=value`` in the raw table (validation happens later, on the whole)."""
+    key, sep, value_text = text.partition("=")
+    key = key.strip()
+    if not sep or not key or any(not part for part in key.split(".")):
+        raise ScenarioError(source, "--set", text, "must look like section.key=value")
+    try:
+        value = tomllib.loads(f"v = {value_text.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = value_text.strip()
+    *sections, leaf = key.split(".")
+    table = raw
+    for i, name in enumerate(sections):
+        table = table.setdefault(name, {})
+        if not isinstance(table, dict):
+            prefix = ".".join(sections[: i + 1])
+            raise ScenarioError(source, prefix, table, "is a value, not a section")
+    table[leaf] = value
+
+
+def scenario_from_dict(raw: dict[str, Any], source: str = "<scenario>") -> Scenario:
+    """Build and check a :class:`Scenario` from an already parsed table."""
+    for name in REQUIRED_SECTIONS:
+        if name not in raw:
+            raise ScenarioError(source, f"[{name}]", dataclasses.MISSING, "section is required")
+    scenario = _build(Scenario, raw, source, "", skip={"source"})
+    scenario = dataclasses.replace(scenario, source=source)
+    _check_assay_keys(raw["assay"], scenario.assay.kind, source)
+    check_consistency(scenario)
+    return scenario
+
+
+def _build(cls: type, raw: Any, source: str, prefix: str, skip: frozenset | set = frozenset()):
+    """Recursively build dataclass ``cls`` from table ``raw``, checking every key."""
+    if not isinstance(raw, dict):
+        raise ScenarioError(source, prefix.rstrip(".") or "(top)", raw, "must be a table")
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.name not in skip}
+    hints = typing.get_type_hints(cls)
+    for key in raw:
+        if key not in fields:
+            raise ScenarioError(source, prefix + key, raw[key], _unknown_key_hint(key, fields))
+    values = {}
+    for name, f in fields.items():
+        key = prefix + name
+        if dataclasses.is_dataclass(hints[name]):
+            values[name] = _build(hints[name], raw.get(name, {}), source, key + ".")
+        elif name in raw:
+            values[name] = check_value(f, raw[name], source, key)
+        elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+            raise ScenarioError(source, key, dataclasses.MISSING, "is required")
+    return cls(**values)
+
+
+def _unknown_key_hint(key: str, fields: dict) -> str:
+    close = difflib.get_close_matches(key, list(fields), n=1, cutoff=0.6)
+    hint = f"did you mean {close[0]!r}? " if close else ""
+    return f"unknown key; {hint}allowed: {', '.join(sorted(fields))}"
+
+
+def _check_assay_keys(raw_assay: dict[str, Any], kind: str, source: str) -> None:
+    """Keys of another assay kind are errors: they would be silently ignored otherwise."""
+    allowed = ASSAY_KIND_KEYS[kind] | ASSAY_COMMON_KEYS
+    for key in raw_assay:
+        if key not in allowed:
+            raise ScenarioError(
+                source, f"assay.{key}", raw_assay[key],
+                f"not used by assay kind {kind!r}; its keys: {', '.join(sorted(allowed))}",
+            )
