@@ -1,0 +1,199 @@
+"""The chip as a discrete-event model (SimPy), one event per chip action, never per pixel or photon.
+
+Frame ``k`` starts at ``k · frame_period`` (integer nanosecond ticks, :mod:`chiptwin.constants`)::
+
+    reset ─ M reset conversions ─ integrate t_int ─ M signal conversions ─ memory write ─ (idle)
+
+All per-pixel ADCs convert at once, so one conversion event carries the whole frame. Frames wait in
+a frame memory of finite capacity until the DSP has a block: first the dark block of K frames (the
+dark reference), then blocks of N frames it averages. A frame occupies memory from its write until
+the DSP job that reads it ends. A write into a full memory is an overflow: the frame is dropped and
+counted, never silently. A DSP slower than the frames arrive is flagged.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import simpy
+
+from chiptwin.chip.trace import Recorder
+from chiptwin.config.schema import Chip
+from chiptwin.constants import s_to_ticks, ticks_to_s
+
+
+class DspEngine(Protocol):
+    """What the chip model needs of a DSP level: a dark block, then blocks of frames."""
+
+    def dark(self, frames: list[Any]) -> None: ...
+
+    def block(self, frames: list[Any]) -> Any: ...
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """The chip's timing in integer nanosecond ticks, derived once from the scenario."""
+
+    n_frames: int
+    frame_period_ns: int
+    t_reset_ns: int
+    t_conv_ns: int
+    t_int_ns: int
+    cms_samples: int
+    memory_frames: int
+    dark_frames: int
+    block_frames: int
+    dsp_ns_per_frame: int
+
+    @classmethod
+    def from_chip(cls, chip: Chip, duration_s: float) -> Schedule:
+        """Derive the schedule: conversions from bit depth and ADC clock, DSP time from its clock."""
+        period = s_to_ticks(chip.timing.frame_period_s)
+        words = chip.n_pixels * chip.samples_per_frame
+        dsp_s = words * chip.dsp.cycles_per_sample / chip.dsp.clock_hz
+        dark_ref_bits = chip.memory.word_bits * chip.n_pixels
+        return cls(
+            n_frames=int(s_to_ticks(duration_s) // period),
+            frame_period_ns=period,
+            t_reset_ns=s_to_ticks(chip.timing.t_reset_s),
+            t_conv_ns=s_to_ticks(chip.adc.conversion_time_s),
+            t_int_ns=s_to_ticks(chip.timing.t_int_s),
+            cms_samples=chip.dsp.cms_samples,
+            memory_frames=(chip.memory.capacity_bits - dark_ref_bits) // chip.frame_bits,
+            dark_frames=chip.dsp.n_dark_frames,
+            block_frames=chip.dsp.average_frames,
+            dsp_ns_per_frame=max(1, s_to_ticks(dsp_s)),
+        )
+
+    def window_s(self, k: int) -> tuple[float, float]:
+        """The integration window of frame ``k``. Unit: s."""
+        start = k * self.frame_period_ns + self.t_reset_ns + self.cms_samples * self.t_conv_ns
+        return ticks_to_s(start), ticks_to_s(start + self.t_int_ns)
+
+    @property
+    def busy_ns(self) -> int:
+        """Reset, conversions and integration of one frame. Unit: ns."""
+        return self.t_reset_ns + 2 * self.cms_samples * self.t_conv_ns + self.t_int_ns
+
+
+@dataclass
+class ChipRun:
+    """What the chip model produced: DSP outputs, memory history and the flags."""
+
+    outputs: list[tuple[list[int], Any]] = field(default_factory=list)
+    occupancy: list[tuple[int, int]] = field(default_factory=list)
+    dropped: list[int] = field(default_factory=list)
+    dsp_busy_ns: int = 0
+    end_ns: int = 0
+    last_write_ns: int = 0
+    unprocessed_frames: int = 0
+
+    @property
+    def memory_peak_frames(self) -> int:
+        return max((occ for _, occ in self.occupancy), default=0)
+
+
+class FrameMemory:
+    """Frame memory of ``capacity`` frames: a SimPy Store plus occupancy accounting."""
+
+    def __init__(self, env: simpy.Environment, capacity: int, rec: Recorder, run: ChipRun):
+        self.env, self.capacity, self.rec, self.run = env, capacity, rec, run
+        self.store = simpy.Store(env)
+        self.occupied = 0
+
+    def write(self, k: int, payload: Any) -> bool:
+        """Store frame ``k``; a full memory drops it and records an overflow."""
+        if self.occupied >= self.capacity:
+            self.run.dropped.append(k)
+            self.rec.record(self.env.now, "memory", "overflow", k)
+            return False
+        self.occupied += 1
+        self.store.put((k, payload))
+        self._note("write")
+        return True
+
+    def free(self, n: int) -> None:
+        """Release ``n`` frames once the DSP job that read them has ended."""
+        self.occupied -= n
+        self._note("free")
+
+    def _note(self, event: str) -> None:
+        self.rec.record(self.env.now, "memory", event, self.occupied)
+        self.run.occupancy.append((self.env.now, self.occupied))
+
+
+def simulate_chip(
+    sch: Schedule,
+    read_frame: Callable[[int], Any],
+    dsp: DspEngine,
+    rec: Recorder,
+    progress: Callable[[int, int], None] | None = None,
+) -> ChipRun:
+    """Run the chip for ``sch.n_frames`` frames.
+
+    Parameters
+    ----------
+    sch : Schedule
+        Timing in ticks.
+    read_frame : callable
+        ``read_frame(k)`` returns frame ``k`` as the ADC delivers it (pixel + ADC stages); called
+        at the end of the frame's signal conversions.
+    dsp : DspEngine
+        The DSP level (float, fixed, or the expected-value propagation).
+    rec : Recorder
+        Receives every event.
+    progress : callable, optional
+        ``progress(frames_done, n_frames)``, called once per frame.
+    """
+    env = simpy.Environment()
+    run = ChipRun()
+    memory = FrameMemory(env, sch.memory_frames, rec, run)
+    env.process(_sensor(env, sch, read_frame, memory, rec, run, progress))
+    env.process(_dsp(env, sch, dsp, memory, rec, run))
+    env.run()
+    run.end_ns = int(env.now)
+    run.unprocessed_frames = len(memory.store.items)
+    return run
+
+
+def _sensor(env, sch: Schedule, read_frame, memory: FrameMemory, rec, run, progress):
+    """Pixel array and ADCs: reset, reset samples, integrate, signal samples, write."""
+    conv = sch.cms_samples * sch.t_conv_ns
+    for k in range(sch.n_frames):
+        rec.record(env.now, "pixel", "reset", k)
+        yield env.timeout(sch.t_reset_ns)
+        rec.record(env.now, "adc", "convert_reset", sch.cms_samples)
+        yield env.timeout(conv)
+        rec.record(env.now, "pixel", "integrate_start", k)
+        yield env.timeout(sch.t_int_ns)
+        rec.record(env.now, "adc", "convert_signal", sch.cms_samples)
+        yield env.timeout(conv)
+        rec.record(env.now, "adc", "frame_ready", k)
+        if memory.write(k, read_frame(k)):
+            run.last_write_ns = int(env.now)
+        if progress is not None:
+            progress(k + 1, sch.n_frames)
+        yield env.timeout(sch.frame_period_ns - sch.busy_ns)
+
+
+def _dsp(env, sch: Schedule, dsp: DspEngine, memory: FrameMemory, rec, run):
+    """The DSP: the dark block once, then blocks of N frames, each job taking its stated time."""
+    size, first = sch.dark_frames, True
+    while True:
+        items = []
+        for _ in range(size):
+            items.append((yield memory.store.get()))
+        rec.record(env.now, "dsp", "job_start", len(items))
+        duration = size * sch.dsp_ns_per_frame
+        yield env.timeout(duration)
+        run.dsp_busy_ns += duration
+        frames = [payload for _, payload in items]
+        if first:
+            dsp.dark(frames)
+        else:
+            run.outputs.append(([k for k, _ in items], dsp.block(frames)))
+        rec.record(env.now, "dsp", "job_end", len(items))
+        memory.free(size)
+        size, first = sch.block_frames, False
