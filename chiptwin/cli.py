@@ -1,0 +1,128 @@
+"""The ``chiptwin`` command: a thin layer over :func:`chiptwin.run.run`.
+
+Exit codes: 0 success, 2 bad input (one clear line, no traceback), 1 internal error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import traceback
+from collections.abc import Sequence
+from importlib import resources
+from pathlib import Path
+
+from chiptwin import __version__
+from chiptwin.config import ScenarioError, load_scenario
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # argparse's default exits; we want an exit code
+        raise ScenarioError("chiptwin", "(arguments)", " ".join(sys.argv[1:]), message)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="chiptwin", description="Digital twin of a CMOS bioluminescence chip.")
+    p.add_argument("--version", action="version", version=f"chiptwin {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a scenario and write its outputs")
+    _scenario_args(r)
+    r.add_argument("--out", help="output folder (default: out/<scenario name>)")
+    r.add_argument("--quiet", action="store_true", help="no progress, no table")
+    v = sub.add_parser("validate", help="check a scenario file without running it")
+    _scenario_args(v)
+    sub.add_parser("list", help="list the bundled scenarios")
+    return p
+
+
+def _scenario_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scenario", help="a TOML file, or the name of a bundled scenario")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a scenario value, e.g. --set chip.adc.bits=12 (repeatable)")
+    p.add_argument("--seed", type=int, help="replace scenario.seed")
+
+
+def bundled_scenarios() -> dict[str, Path]:
+    """The scenarios shipped with the package, by name."""
+    folder = resources.files("chiptwin.scenarios")
+    return {Path(str(f)).stem: Path(str(f)) for f in folder.iterdir() if f.name.endswith(".toml")}
+
+
+def resolve_scenario(name: str) -> Path:
+    """A path as given, or a bundled scenario's file."""
+    path = Path(name)
+    if path.exists() or path.suffix == ".toml":
+        return path
+    return bundled_scenarios().get(name, path)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI in-process; returns the exit code."""
+    try:
+        args = build_parser().parse_args(argv)
+        return _dispatch(args)
+    except ScenarioError as exc:
+        print(f"chiptwin: error: {exc}", file=sys.stderr)
+        return 2
+    except SystemExit as exc:  # --help and --version
+        return int(exc.code or 0)
+    except KeyboardInterrupt:
+        print("chiptwin: interrupted", file=sys.stderr)
+        return 130
+    except Exception:  # an internal error: show it, it is a bug
+        traceback.print_exc()
+        print("chiptwin: internal error (the traceback above is a bug report)", file=sys.stderr)
+        return 1
+
+
+def _dispatch(args: argparse.Namespace) -> int:
+    if args.command == "list":
+        for name, path in sorted(bundled_scenarios().items()):
+            print(f"{name:24s} {_first_comment(path)}")
+        return 0
+    path = resolve_scenario(args.scenario)
+    scenario = load_scenario(path, args.set, args.seed)
+    if args.command == "validate":
+        print(f"{path}: ok ({scenario.scenario.name})")
+        return 0
+    from chiptwin.report import headline, write_outputs
+    from chiptwin.run import run
+
+    progress = None if args.quiet else _Progress()
+    result = run(scenario, progress=progress)
+    out = write_outputs(result, args.out or Path("out") / scenario.scenario.name)
+    if not args.quiet:
+        for key, value in headline(result.summary):
+            print(f"  {key:28s} {value}")
+        print(f"  outputs in {out}/ (summary.json, arrays.npz, report.md, plots)")
+    return 0
+
+
+def _first_comment(path: Path) -> str:
+    for line in path.read_text().splitlines():
+        if line.startswith("#"):
+            return line.lstrip("# ").strip()
+    return ""
+
+
+class _Progress:
+    """Prints progress to stderr once a run has taken more than two seconds, then every second."""
+
+    def __init__(self) -> None:
+        self.t0 = time.perf_counter()
+        self.last = self.t0 + 1.0
+
+    def __call__(self, done: int, total: int) -> None:
+        now = time.perf_counter()
+        if now - self.last >= 1.0 or (done == total and now - self.t0 > 2.0):
+            self.last = now
+            print(f"\r  frames {done}/{total} ({100 * done / total:.0f} %)", end="",
+                  file=sys.stderr, flush=True)
+            if done == total:
+                print(file=sys.stderr)
+
+
+def entry() -> None:
+    """Console-script entry point."""
+    sys.exit(main())

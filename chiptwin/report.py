@@ -1,0 +1,129 @@
+"""Outputs of a run: ``summary.json``, ``arrays.npz``, PNG plots and ``report.md``, written atomically.
+
+Everything is written into a fresh temporary folder beside the target and renamed into place at the
+end, so a crashed or refused run never leaves a half-written folder that looks complete.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from chiptwin.run import Result
+
+
+def write_outputs(result: Result, out_dir: str | Path) -> Path:
+    """Write every output of ``result`` into ``out_dir`` (replaced whole if it exists)."""
+    out = Path(out_dir)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        (tmp / "summary.json").write_text(json.dumps(result.summary, indent=2) + "\n")
+        np.savez_compressed(tmp / "arrays.npz", **result.arrays, **result.trace.to_arrays())
+        plots = make_plots(result, tmp)
+        (tmp / "report.md").write_text(report_markdown(result.summary, plots))
+        if out.exists():
+            shutil.rmtree(out)
+        tmp.rename(out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out
+
+
+def make_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
+    """Light curve per site, a DSP frame image, memory occupancy and (pyrosequencing) the pyrogram.
+
+    Returns
+    -------
+    list of (file name, caption).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    a, plots = result.arrays, []
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    for i in range(a["site_signal_e"].shape[0]):
+        ax.plot(a["block_t_s"], a["site_signal_e"][i], lw=0.8, label=f"site {i}")
+    ax.set(xlabel="time (s)", ylabel="signal per frame (e⁻)", title="Light curve at each site pixel")
+    if a["site_signal_e"].shape[0] <= 8:
+        ax.legend(fontsize=7)
+    plots.append(_save(fig, folder, "light_curve.png", "DSP output at each site's pixel"))
+
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    im = ax.imshow(a["peak_frame_e"], cmap="magma", interpolation="nearest")
+    fig.colorbar(im, ax=ax, label="e⁻ per frame")
+    ax.set(title=f"DSP output frame at t = {float(a['peak_frame_t_s']):.1f} s", xlabel="column",
+           ylabel="row")
+    plots.append(_save(fig, folder, "frame.png", "The brightest DSP output frame"))
+
+    if "flow_values" in a:
+        fig, ax = plt.subplots(figsize=(7, 3.5))
+        flows = result.summary["flows"]
+        ax.bar(range(len(flows)), a["flow_values"][0], color="tab:green")
+        ax.set_xticks(range(len(flows)), [f["nucleotide"] for f in flows], fontsize=7)
+        ax.set(ylabel="normalised flow value", title="Pyrogram (site 0)")
+        for n in range(1, int(np.max(a["flow_values"][0]) + 1.5)):
+            ax.axhline(n, color="grey", lw=0.5, ls=":")
+        plots.append(_save(fig, folder, "pyrogram.png", "Pyrogram of site 0"))
+
+    fig, ax = plt.subplots(figsize=(7, 2.5))
+    ax.step(a["memory_t_s"], a["memory_frames"], where="post")
+    ax.set(xlabel="time (s)", ylabel="frames", title="Frame memory occupancy")
+    plots.append(_save(fig, folder, "memory.png", "Frame memory occupancy"))
+    return plots
+
+
+def _save(fig, folder: Path, name: str, caption: str) -> tuple[str, str]:
+    fig.tight_layout()
+    fig.savefig(folder / name, dpi=100)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return name, caption
+
+
+def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> str:
+    """A short human report: headline figures, the fidelity used, the plots."""
+    lines = [f"# {summary['scenario']}", "", summary.get("description", ""), ""]
+    lines += ["| quantity | value |", "|---|---|"]
+    lines += [f"| {k} | {v} |" for k, v in headline(summary)]
+    lines += ["", "Fidelity: " + ", ".join(f"{k} = {v}" for k, v in summary["fidelity"].items())]
+    lines += ["", f"SNR: {summary['snr_definition']}", ""]
+    lines += [f"![{cap}]({name})\n\n*{cap}*\n" for name, cap in plots]
+    return "\n".join(lines) + "\n"
+
+
+def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
+    """The compact table printed by the CLI and put at the top of report.md."""
+    rows = [("wall time", f"{summary['wall_time_s']:.2f} s"), ("seed", str(summary["seed"]))]
+    for site in summary["sites"][:8]:
+        rows.append((
+            f"site {site['id']} {site['pixel']}",
+            f"signal {site['signal_e']:.4g} e⁻, noise {site['noise_e']:.3g} e⁻, "
+            f"SNR {site['snr_power']:.4g} (power) / {site['snr_amplitude']:.4g} (amplitude), "
+            f"{'detected' if site['detected'] else 'NOT detected'}",
+        ))
+    if len(summary["sites"]) > 8:
+        rows.append(("sites", f"{len(summary['sites'])} in all (see summary.json)"))
+    if "called_sequence" in summary:
+        ok = summary["called_sequence"] == summary["true_sequence"]
+        rows.append(("true sequence", summary["true_sequence"]))
+        rows.append(("called sequence", summary["called_sequence"] + ("  ✓" if ok else "  ✗")))
+    if "required_flux_photons_per_s_per_um2" in summary:
+        rows.append(("flux for SNR 10 (power)",
+                     f"{summary['required_flux_photons_per_s_per_um2']:.4g} photons/s/µm²"))
+    chip = summary["chip"]
+    rows.append(("chip", f"{chip['frames']} frames, {chip['adc_bits']}-bit ADC, memory peak "
+                 f"{chip['memory_peak_frames']} frames of {chip['memory_capacity_frames']}, "
+                 f"DSP utilisation {chip['dsp_utilization']:.3g}, overflows {chip['overflows']}"))
+    rows += [(f"flag: {f}", "yes") for f in chip["flags"]]
+    return rows

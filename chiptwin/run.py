@@ -1,0 +1,297 @@
+"""``run(scenario, overrides, seed)``: the one entry point the CLI and the Python API share.
+
+The run goes through :data:`chiptwin.STAGES` in order: the light of every site over every
+integration window (kinetics), onto the pixels (optics), through the chip model (pixel, ADC, frame
+memory and DSP as SimPy events), to per-site estimates (detection). Each stage draws from its own
+named random stream (:func:`stage_rng`), so adding a stage never shifts another's numbers.
+"""
+
+from __future__ import annotations
+
+import time
+import zlib
+from collections import defaultdict
+from collections.abc import Callable, Iterable
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from chiptwin import __version__, pixel, stages
+from chiptwin.chip import ChipRun, Recorder, Schedule, simulate_chip
+from chiptwin.config import Scenario, load_scenario
+from chiptwin.detection import SNR_DEFINITION, required_signal_e, snr, window_sums
+from chiptwin.dsp.pipeline import Frame, Pipeline
+from chiptwin.kinetics import pyro
+
+
+def stage_rng(seed: int, stage: str) -> np.random.Generator:
+    """The random stream of one stage: ``SeedSequence(seed)``'s child keyed by the stage's name."""
+    key = zlib.crc32(stage.encode())
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(key,)))
+
+
+@dataclass
+class Result:
+    """A finished run: the summary (as in ``summary.json``), the arrays, and the event trace."""
+
+    summary: dict[str, Any]
+    arrays: dict[str, np.ndarray]
+    trace: Recorder
+    scenario: Scenario
+
+
+class StageTimer:
+    """Wall time per stage, accumulated over the run."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = defaultdict(float)
+
+    @contextmanager
+    def __call__(self, stage: str):
+        t0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds[stage] += time.perf_counter() - t0
+
+
+@dataclass
+class ChainOutput:
+    """The chip model's outputs at the pixels, in electrons."""
+
+    chip: ChipRun
+    block_t_s: np.ndarray
+    value_e: np.ndarray
+    mean_e: np.ndarray
+    var_e2: np.ndarray
+    dark_var_e2: np.ndarray
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+def run(
+    scenario: Scenario | str | Path,
+    overrides: Iterable[str] = (),
+    seed: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> Result:
+    """Run a scenario end to end.
+
+    Parameters
+    ----------
+    scenario : Scenario, or a path to a TOML file
+    overrides : ``"section.key=value"`` strings (only with a path)
+    seed : replaces ``scenario.seed`` (only with a path)
+    progress : ``progress(frames_done, n_frames)``, called once per frame
+    """
+    t_start = time.perf_counter()
+    s = scenario if isinstance(scenario, Scenario) else load_scenario(scenario, overrides, seed)
+    timer = StageTimer()
+    sch = Schedule.from_chip(s.chip, s.run.duration_s)
+    with timer("kinetics"):
+        source = stages.light_source(s)
+        edges = np.array([sch.window_s(k) for k in range(sch.n_frames)]).reshape(-1)
+        site_photons = source.photons(edges)[:, ::2]
+    with timer("optics"):
+        pix_photons = stages.coupling(s) @ site_photons
+    sensor = stages.sensor_model(s, stage_rng(s.scenario.seed, "fixed_pattern"))
+    rec = Recorder()
+    out = simulate(s, sch, sensor, pix_photons, s.run.fidelity.photons,
+                   stage_rng(s.scenario.seed, "pixel"), rec, timer, progress)
+    with timer("detection"):
+        summary, arrays = detect(s, sch, sensor, out, pix_photons)
+        arrays["site_photons"] = site_photons
+    summary.update(
+        scenario=s.scenario.name, description=s.scenario.description, seed=s.scenario.seed,
+        chiptwin_version=__version__,
+        fidelity={"kinetics": s.run.fidelity.kinetics, "photons": s.run.fidelity.photons,
+                  "optics": "na2" if s.optics.coupling == "lens" else s.run.fidelity.optics,
+                  "dsp": s.dsp_level},
+        stage_time_s={k: round(v, 6) for k, v in timer.seconds.items()},
+        wall_time_s=round(time.perf_counter() - t_start, 6),
+        snr_definition=SNR_DEFINITION,
+    )
+    return Result(summary=summary, arrays=arrays, trace=rec, scenario=s)
+
+
+def simulate(s: Scenario, sch: Schedule, sensor: stages.SensorModel, pix_photons: np.ndarray,
+             photons_level: str, rng: np.random.Generator, rec: Recorder,
+             timer: StageTimer | None = None, progress=None) -> ChainOutput:
+    """Pixel → ADC → memory → DSP through the chip model, for photons per pixel per frame."""
+    timer = timer or StageTimer()
+    adc = s.chip.adc
+    t_int = s.chip.timing.t_int_s
+    to_lsb = (1.0 + adc.gain_error) / sensor.e_per_lsb
+    quant_var = 2.0 / (12.0 * sensor.cms_samples)  # two means of M samples, each LSB²/12
+    args = (sensor.qe, sensor.gain_map, sensor.dark_e_per_s * t_int, sensor.full_well_e,
+            sensor.ktc_e, sensor.read_noise_e, sensor.cms_samples, sensor.true_cds)
+
+    def read_frame(k: int) -> Frame:
+        photons = pix_photons[:, k]
+        with timer("pixel"):
+            mean_e, var_e = pixel.expected_frame(photons, *args)
+            samples = None if photons_level == "expected" else pixel.sample_frame(
+                rng, photons, *args)
+        with timer("adc"):
+            codes = None
+            if samples is not None:
+                volts = pixel.to_volts(np.concatenate(samples), sensor.conversion_gain_uV_per_e,
+                                       sensor.pedestal_V)
+                codes = pixel.adc_convert(volts, adc.bits, adc.v_min_V, adc.v_max_V,
+                                          adc.offset_error_lsb, adc.gain_error)
+        return Frame(codes=codes, mean=mean_e * to_lsb, var=var_e * to_lsb**2 + quant_var)
+
+    pipeline = _TimedPipeline(Pipeline(s.dsp_level), timer)
+    t0 = time.perf_counter()
+    chip = simulate_chip(sch, read_frame, pipeline, rec, progress)
+    inner = sum(timer.seconds[k] for k in ("pixel", "adc", "dsp"))
+    timer.seconds["memory"] += time.perf_counter() - t0 - inner  # the event engine itself
+    return _chain_output(chip, sch, pipeline.inner, sensor.e_per_lsb)
+
+
+class _TimedPipeline:
+    """Wraps the DSP so its wall time is booked to the ``dsp`` stage."""
+
+    def __init__(self, inner: Pipeline, timer: StageTimer) -> None:
+        self.inner, self.timer = inner, timer
+
+    def dark(self, frames):
+        with self.timer("dsp"):
+            return self.inner.dark(frames)
+
+    def block(self, frames):
+        with self.timer("dsp"):
+            return self.inner.block(frames)
+
+
+def _chain_output(chip: ChipRun, sch: Schedule, dsp: Pipeline, e_per_lsb: float) -> ChainOutput:
+    n_pix = len(dsp.dark_mean) if dsp.dark_mean is not None else 0
+    mids = [np.mean([sum(sch.window_s(k)) / 2 for k in ks]) for ks, _ in chip.outputs]
+    stack = (lambda name: np.array([getattr(o, name) for _, o in chip.outputs]).reshape(-1, n_pix))
+    return ChainOutput(
+        chip=chip, block_t_s=np.array(mids), value_e=stack("value") * e_per_lsb,
+        mean_e=stack("mean") * e_per_lsb, var_e2=stack("var") * e_per_lsb**2,
+        dark_var_e2=(dsp.dark_var if dsp.dark_var is not None else np.zeros(0)) * e_per_lsb**2,
+    )
+
+
+def detect(s: Scenario, sch: Schedule, sensor: stages.SensorModel, out: ChainOutput,
+           pix_photons: np.ndarray) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Per-site estimates, decisions, base calls, and the chip's figures."""
+    rc = stages.site_pixels(s)
+    idx = rc[:, 0] * s.chip.cols + rc[:, 1]
+    n_avg = s.chip.dsp.average_frames
+    arrays: dict[str, np.ndarray] = {
+        "block_t_s": out.block_t_s, "site_pixel_index": idx,
+        "site_signal_e": out.value_e[:, idx].T / 1.0,
+        "pixel_photons": pix_photons,
+    }
+    summary: dict[str, Any] = {}
+    if s.assay.kind == "pyrosequencing":
+        sites = _pyro_sites(s, out, idx, summary, arrays)
+    else:
+        edges = np.array([s.assay.start_s, s.run.duration_s])
+        sums, var = window_sums(out.block_t_s, out.value_e, out.var_e2, out.dark_var_e2, n_avg,
+                                edges)
+        sites = _site_rows(s, rc, sums[0, idx], np.sqrt(var[0, idx]))
+    summary["sites"] = sites
+    if s.assay.kind == "flux":
+        summary["required_flux_photons_per_s_per_um2"] = _required_flux(s, sch, sensor, out, idx)
+    peak = int(np.argmax(out.value_e[:, idx].sum(axis=1))) if len(out.value_e) else 0
+    arrays["peak_frame_e"] = (out.value_e[peak] if len(out.value_e) else
+                              np.zeros(s.chip.n_pixels)).reshape(s.chip.rows, s.chip.cols)
+    arrays["peak_frame_t_s"] = np.array(out.block_t_s[peak] if len(out.block_t_s) else 0.0)
+    arrays["memory_t_s"] = np.array([t for t, _ in out.chip.occupancy]) / 1e9
+    arrays["memory_frames"] = np.array([o for _, o in out.chip.occupancy])
+    summary["chip"] = chip_figures(s, sch, out.chip)
+    return summary, arrays
+
+
+def _site_rows(s: Scenario, rc: np.ndarray, signal: np.ndarray, noise: np.ndarray) -> list[dict]:
+    p, a = snr(signal, noise)
+    return [
+        {"id": i, "pixel": [int(r), int(c)], "signal_e": float(signal[i]),
+         "noise_e": float(noise[i]), "snr_power": float(p[i]), "snr_amplitude": float(a[i]),
+         "detected": bool(p[i] >= s.run.detection_snr_power)}
+        for i, (r, c) in enumerate(rc)
+    ]
+
+
+def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
+    """Flow values per site, normalised by the key's 1-mers, and the called sequences."""
+    a = s.assay
+    nucs, n_inc = stages.flow_program(s)
+    edges = a.start_s + a.flow_period_s * np.arange(a.n_flows + 1)
+    sums, var = window_sums(out.block_t_s, out.value_e, out.var_e2, out.dark_var_e2,
+                            s.chip.dsp.average_frames, edges)
+    key_n = pyro.key_flow_counts(a.key, a.flow_order)
+    ones = np.flatnonzero(key_n == 1)
+    flow_values, calls, signal, noise = [], [], [], []
+    for j in idx:
+        ref = float(np.mean(sums[ones, j]))
+        norm = pyro.normalise_flows(sums[:, j], key_n) if ref > 0 else np.zeros(a.n_flows)
+        flow_values.append(norm)
+        calls.append(pyro.call_sequence(nucs, norm))
+        signal.append(ref)
+        noise.append(float(np.sqrt(np.mean(var[ones, j]))))
+    true_seq = "".join(nuc * int(n) for nuc, n in zip(nucs, n_inc, strict=True))
+    summary["true_sequence"] = true_seq
+    summary["called_sequence"] = calls[0][0]
+    summary["called_sequences"] = [c for c, _ in calls]
+    summary["flows"] = [
+        {"nucleotide": nucs[f], "value": float(flow_values[0][f]),
+         "called_n": int(calls[0][1][f]), "true_n": int(n_inc[f]),
+         "signal_e": float(sums[f, idx[0]]), "noise_e": float(np.sqrt(var[f, idx[0]]))}
+        for f in range(a.n_flows)
+    ]
+    arrays["flow_values"] = np.array(flow_values)
+    arrays["flow_sums_e"] = sums[:, idx].T
+    return _site_rows(s, stages.site_pixels(s), np.array(signal), np.array(noise))
+
+
+def _required_flux(s, sch, sensor, out: ChainOutput, idx) -> float:
+    """Flux at the diode that gives power SNR = ``run.detection_snr_power`` (site 0).
+
+    The estimator's variance is linear in the signal, var = var0 + k·S; var0 comes from the
+    same chain run in darkness at the ``expected`` level, k from this run's expected values.
+    """
+    dark = simulate(s, sch, sensor, np.zeros((s.chip.n_pixels, sch.n_frames)), "expected",
+                    np.random.default_rng(0), Recorder())
+    edges = np.array([s.assay.start_s, s.run.duration_s])
+    n = s.chip.dsp.average_frames
+    sig, var = window_sums(out.block_t_s, out.mean_e, out.var_e2, out.dark_var_e2, n, edges)
+    _, var0 = window_sums(dark.block_t_s, dark.mean_e, dark.var_e2, dark.dark_var_e2, n, edges)
+    signal, v, v0 = sig[0, idx[0]], var[0, idx[0]], var0[0, idx[0]]
+    if signal <= 0:
+        return float("inf")
+    needed = required_signal_e(s.run.detection_snr_power, v0, (v - v0) / signal)
+    return s.assay.photons_per_s_per_um2 * needed / signal
+
+
+def chip_figures(s: Scenario, sch: Schedule, chip: ChipRun) -> dict[str, Any]:
+    """Frames, memory, DSP load and the flags, for ``summary['chip']``."""
+    active_ns = max(sch.n_frames * sch.frame_period_ns, 1)
+    slow = sch.dsp_ns_per_frame > sch.frame_period_ns
+    lag_ns = max(0, chip.end_ns - chip.last_write_ns)
+    flags = []
+    if chip.dropped:
+        flags.append("memory_overflow")
+    if slow or chip.unprocessed_frames >= sch.block_frames:
+        flags.append("dsp_cannot_keep_up")
+    return {
+        "frames": sch.n_frames,
+        "adc_bits": s.chip.adc.bits,
+        "memory_bits": s.chip.memory.capacity_bits,
+        "memory_capacity_frames": sch.memory_frames,
+        "memory_peak_frames": chip.memory_peak_frames,
+        "dsp_utilization": chip.dsp_busy_ns / active_ns,
+        "dsp_lag_s": lag_ns / 1e9,
+        "overflows": len(chip.dropped),
+        "unprocessed_frames": chip.unprocessed_frames,
+        "frame_period_s": sch.frame_period_ns / 1e9,
+        "conversion_time_s": sch.t_conv_ns / 1e9,
+        "dsp_time_per_frame_s": sch.dsp_ns_per_frame / 1e9,
+        "flags": flags,
+    }
