@@ -44,9 +44,16 @@ def _scenario_args(p: argparse.ArgumentParser) -> None:
 
 
 def bundled_scenarios() -> dict[str, Path]:
-    """The scenarios shipped with the package, by name."""
-    folder = resources.files("chiptwin.scenarios")
-    return {Path(str(f)).stem: Path(str(f)) for f in folder.iterdir() if f.name.endswith(".toml")}
+    """The scenarios shipped with the package, by name.
+
+    An installed package carries them as ``chiptwin.scenarios`` (``scenarios/`` mapped in
+    pyproject.toml); a source tree has them in ``scenarios/`` beside the package.
+    """
+    try:
+        folder = Path(str(resources.files("chiptwin.scenarios")))
+    except ModuleNotFoundError:
+        folder = Path(__file__).resolve().parents[1] / "scenarios"
+    return {f.stem: f for f in sorted(folder.glob("*.toml"))}
 
 
 def resolve_scenario(name: str) -> Path:

@@ -73,15 +73,15 @@ def coupling(s: Scenario) -> np.ndarray:
         eff = optics.collection_efficiency(o.aperture_diameter_um, o.object_distance_um,
                                            o.convention)
         return under * eff * o.transmission
-    xy = (rc[:, ::-1] + 0.5) * chip.pitch_um
     grid = dict(n_rows=chip.rows, n_cols=chip.cols, pitch_um=chip.pitch_um,
-                diode_w_um=px.diode_w_um, diode_h_um=px.diode_h_um)
+                diode_w_um=px.diode_w_um, diode_h_um=px.diode_h_um,
+                site_x_um=(rc[:, 1] + 0.5) * chip.pitch_um,
+                site_y_um=(rc[:, 0] + 0.5) * chip.pitch_um,
+                height_um=s.sites.height_um, convention=o.convention)
     if s.run.fidelity.optics == "na2":
-        c = optics.na2_coupling(xy, height_um=s.sites.height_um, convention=o.convention, **grid)
+        c = optics.coupling_na2(**grid)
     else:
-        c = optics.coupling_matrix(xy, height_um=s.sites.height_um,
-                                   footprint_radius_um=s.sites.footprint_radius_um,
-                                   convention=o.convention, **grid)
+        c = optics.coupling_psf(**grid, site_radius_um=s.sites.footprint_radius_um)
     return c * o.transmission
 
 
