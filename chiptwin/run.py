@@ -13,7 +13,7 @@ import zlib
 from collections import defaultdict
 from collections.abc import Callable, Iterable
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -83,11 +83,17 @@ def run(
     ----------
     scenario : Scenario, or a path to a TOML file
     overrides : ``"section.key=value"`` strings (only with a path)
-    seed : replaces ``scenario.seed`` (only with a path)
+    seed : replaces ``scenario.seed``
     progress : ``progress(frames_done, n_frames)``, called once per frame
     """
     t_start = time.perf_counter()
-    s = scenario if isinstance(scenario, Scenario) else load_scenario(scenario, overrides, seed)
+    if isinstance(scenario, Scenario):
+        if overrides:
+            raise TypeError("overrides apply to scenario files; use dataclasses.replace here")
+        s = scenario if seed is None else replace(
+            scenario, scenario=replace(scenario.scenario, seed=seed))
+    else:
+        s = load_scenario(scenario, overrides, seed)
     timer = StageTimer()
     sch = Schedule.from_chip(s.chip, s.run.duration_s)
     with timer("kinetics"):

@@ -1,0 +1,97 @@
+"""Kinetics: light emitted per assay site. Unit: photons/s (into 4π), integrated to photons.
+
+Level ``closed_form`` (this package): the equations 2–19 of Salama et al., Biosens. Bioelectron.
+19 (2004) as pure array functions (:mod:`~chiptwin.kinetics.closed_form`), turned into light
+sources (:mod:`~chiptwin.kinetics.sources`) of one common shape, the :class:`PulseTrain`
+(:mod:`~chiptwin.kinetics.pulse_train`): per-site sums of exponential pulses with an exact window
+integral. Pyrosequencing's dispensation program, key normalisation and base calling live in
+:mod:`~chiptwin.kinetics.pyro`.
+
+Contract (docs/architecture.md): a light source has ``rate(t_s) -> (n_sites, n_t)`` in photons/s
+and ``photons(t_edges_s) -> (n_sites, n_windows)``, the exact integral over each window.
+"""
+
+from __future__ import annotations
+
+from chiptwin.kinetics.closed_form import (
+    ALPHA_ANDO,
+    ALPHA_SELIGER_MCELROY,
+    ATP_TURNOVER_FLASH_PER_S,
+    ATP_TURNOVER_GLOW_PER_S,
+    PYRO_APYRASE_PER_S,
+    PYRO_TURNOVER_PER_S,
+    RONAGHI_PHOTONS_PER_INCORPORATION,
+    atp_assay_photons,
+    atp_assay_rate,
+    catalyst_detection_photons,
+    catalyst_detection_rate,
+    emission_prefactor,
+    incorporation_yield,
+    luciferase_label_photons,
+    luciferase_label_rate,
+    mass_action_rate,
+    photon_rate,
+    pyrosequencing_amplitude,
+    pyrosequencing_photons,
+    pyrosequencing_rate,
+    substrate_detection_photons,
+    substrate_detection_rate,
+)
+from chiptwin.kinetics.light_source import LightSource
+from chiptwin.kinetics.pulse_train import PulseTrain, superpose
+from chiptwin.kinetics.pyro import (
+    FLOW_ORDER_454,
+    KEY_454,
+    call_sequence,
+    flow_incorporations,
+    flows_to_sequence,
+    key_flow_counts,
+    normalise_flows,
+)
+from chiptwin.kinetics.sources import (
+    atp_assay,
+    catalyst_detection,
+    luciferase_label,
+    pyrosequencing,
+    substrate_detection,
+)
+
+__all__ = [
+    "ALPHA_ANDO",
+    "ALPHA_SELIGER_MCELROY",
+    "ATP_TURNOVER_FLASH_PER_S",
+    "ATP_TURNOVER_GLOW_PER_S",
+    "FLOW_ORDER_454",
+    "KEY_454",
+    "PYRO_APYRASE_PER_S",
+    "PYRO_TURNOVER_PER_S",
+    "RONAGHI_PHOTONS_PER_INCORPORATION",
+    "LightSource",
+    "PulseTrain",
+    "atp_assay",
+    "atp_assay_photons",
+    "atp_assay_rate",
+    "call_sequence",
+    "catalyst_detection",
+    "catalyst_detection_photons",
+    "catalyst_detection_rate",
+    "emission_prefactor",
+    "flow_incorporations",
+    "flows_to_sequence",
+    "incorporation_yield",
+    "key_flow_counts",
+    "luciferase_label",
+    "luciferase_label_photons",
+    "luciferase_label_rate",
+    "mass_action_rate",
+    "normalise_flows",
+    "photon_rate",
+    "pyrosequencing",
+    "pyrosequencing_amplitude",
+    "pyrosequencing_photons",
+    "pyrosequencing_rate",
+    "substrate_detection",
+    "substrate_detection_photons",
+    "substrate_detection_rate",
+    "superpose",
+]

@@ -1,0 +1,46 @@
+"""Optics: the share of each site's light that reaches each pixel's photodiode.
+
+Unit in: photons emitted per site (into 4π); unit out: photons per pixel, via the coupling matrix
+``C (n_pixels, n_sites)`` — pixel photons = ``C @ source.photons(edges)``.
+
+Levels (SPEC "optics"): ``na2`` (:func:`coupling_na2`, geometric collection efficiency, no
+spread) and ``psf`` (:func:`coupling_psf`, the irradiance integrated exactly over every diode and
+averaged over the site footprint, cross-talk included). Both take an emission ``convention`` by
+name (:data:`CONVENTIONS`): ``"lambertian_na2"`` (the paper's NA²) or ``"isotropic"``.
+"""
+
+from __future__ import annotations
+
+from chiptwin.optics.collection import (
+    CONVENTIONS,
+    ISOTROPIC,
+    LAMBERTIAN_NA2,
+    check_convention,
+    collection_efficiency,
+    half_angle_rad,
+    plane_fraction,
+)
+from chiptwin.optics.psf import (
+    APERTURES,
+    coupling_na2,
+    coupling_psf,
+    diode_collection_efficiency,
+    pixel_centers_um,
+    point_rectangle_fraction,
+)
+
+__all__ = [
+    "APERTURES",
+    "CONVENTIONS",
+    "ISOTROPIC",
+    "LAMBERTIAN_NA2",
+    "check_convention",
+    "collection_efficiency",
+    "coupling_na2",
+    "coupling_psf",
+    "diode_collection_efficiency",
+    "half_angle_rad",
+    "pixel_centers_um",
+    "plane_fraction",
+    "point_rectangle_fraction",
+]
