@@ -201,7 +201,7 @@ def detect(s: Scenario, sch: Schedule, sensor: stages.SensorModel, out: ChainOut
         edges = np.array([s.assay.start_s, s.run.duration_s])
         sums, var = window_sums(out.block_t_s, out.value_e, out.var_e2, out.dark_var_e2, n_avg,
                                 edges)
-        sites = _site_rows(s, rc, sums[0, idx], np.sqrt(var[0, idx]))
+        sites = _site_rows(s, rc, sums[0, idx], np.sqrt(var[0, idx]), out, idx)
     summary["sites"] = sites
     if s.assay.kind == "flux":
         summary["required_flux_photons_per_s_per_um2"] = _required_flux(s, sch, sensor, out, idx)
@@ -215,12 +215,27 @@ def detect(s: Scenario, sch: Schedule, sensor: stages.SensorModel, out: ChainOut
     return summary, arrays
 
 
-def _site_rows(s: Scenario, rc: np.ndarray, signal: np.ndarray, noise: np.ndarray) -> list[dict]:
+def _site_rows(s: Scenario, rc: np.ndarray, signal: np.ndarray, noise: np.ndarray,
+               out: ChainOutput, idx: np.ndarray, peak_window: np.ndarray | None = None,
+               ) -> list[dict]:
+    """One summary row per site.
+
+    ``peak_frame_*`` is the brightest single DSP output among those in ``peak_window`` (all by
+    default; for pyrosequencing the key's single-base flows, so it is a 1-mer peak). Its signal
+    is the expected value, so its SNR is a property of the chip, not of one noisy frame.
+    """
     p, a = snr(signal, noise)
+    values = out.mean_e[:, idx] if len(out.mean_e) else np.zeros((1, len(idx)))
+    frame_snr = (values**2 / (out.var_e2[:, idx] + out.dark_var_e2[idx]) if len(out.value_e)
+                 else np.zeros_like(values))
+    masked = np.where(peak_window[:, None], values, -np.inf) if peak_window is not None else values
+    peak = np.argmax(masked, axis=0)
     return [
         {"id": i, "pixel": [int(r), int(c)], "signal_e": float(signal[i]),
          "noise_e": float(noise[i]), "snr_power": float(p[i]), "snr_amplitude": float(a[i]),
-         "detected": bool(p[i] >= s.run.detection_snr_power)}
+         "detected": bool(p[i] >= s.run.detection_snr_power),
+         "peak_frame_signal_e": float(values[peak[i], i]),
+         "peak_frame_snr_power": float(frame_snr[peak[i], i])}
         for i, (r, c) in enumerate(rc)
     ]
 
@@ -254,7 +269,9 @@ def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
     ]
     arrays["flow_values"] = np.array(flow_values)
     arrays["flow_sums_e"] = sums[:, idx].T
-    return _site_rows(s, stages.site_pixels(s), np.array(signal), np.array(noise))
+    flow_of_block = np.searchsorted(edges, out.block_t_s, side="right") - 1
+    return _site_rows(s, stages.site_pixels(s), np.array(signal), np.array(noise), out, idx,
+                      peak_window=np.isin(flow_of_block, ones))
 
 
 def _required_flux(s, sch, sensor, out: ChainOutput, idx) -> float:

@@ -71,7 +71,7 @@ def coupling(s: Scenario) -> np.ndarray:
         return under
     if o.coupling == "lens":
         eff = optics.collection_efficiency(o.aperture_diameter_um, o.object_distance_um,
-                                           o.convention)
+                                           convention=o.convention)
         return under * eff * o.transmission
     grid = dict(n_rows=chip.rows, n_cols=chip.cols, pitch_um=chip.pitch_um,
                 diode_w_um=px.diode_w_um, diode_h_um=px.diode_h_um,
