@@ -175,7 +175,10 @@ class _TimedPipeline:
 def _chain_output(chip: ChipRun, sch: Schedule, dsp: Pipeline, e_per_lsb: float) -> ChainOutput:
     n_pix = len(dsp.dark_mean) if dsp.dark_mean is not None else 0
     mids = [np.mean([sum(sch.window_s(k)) / 2 for k in ks]) for ks, _ in chip.outputs]
-    stack = (lambda name: np.array([getattr(o, name) for _, o in chip.outputs]).reshape(-1, n_pix))
+
+    def stack(name: str) -> np.ndarray:
+        return np.array([getattr(o, name) for _, o in chip.outputs]).reshape(-1, n_pix)
+
     return ChainOutput(
         chip=chip, block_t_s=np.array(mids), value_e=stack("value") * e_per_lsb,
         mean_e=stack("mean") * e_per_lsb, var_e2=stack("var") * e_per_lsb**2,

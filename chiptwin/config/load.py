@@ -56,7 +56,8 @@ def read_toml(path: str | Path) -> dict[str, Any]:
     try:
         text = Path(path).read_bytes().decode("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(source, "(file)", source, f"must be a readable UTF-8 file ({exc})")
+        raise ScenarioError(
+            source, "(file)", source, f"must be a readable UTF-8 file ({exc})") from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
