@@ -53,8 +53,10 @@ def main() -> None:
     warm = sorted(cached["warm_s"])
     median = warm[len(warm) // 2] if warm else float("nan")
     print("pyro_1fmol end to end (run() only; writing outputs is separate)")
-    print(f"  cold, empty JIT cache : import {cold['import_s']:.2f} s + run {cold['first_run_s']:.2f} s")
-    print(f"  new process, cached   : import {cached['import_s']:.2f} s + run {cached['first_run_s']:.2f} s")
+    print(f"  cold, empty JIT cache : import {cold['import_s']:.2f} s"
+          f" + run {cold['first_run_s']:.2f} s")
+    print(f"  new process, cached   : import {cached['import_s']:.2f} s"
+          f" + run {cached['first_run_s']:.2f} s")
     print(f"  warm (median of {len(warm)})  : {median:.3f} s   [aim < 1 s]")
     print(f"  stage times (last)    : {cached['stage_time_s']}")
     print(f"  called sequence right : {cached['called_ok']}")

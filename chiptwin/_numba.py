@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from numba import njit
 
-#: Options shared by every kernel: compiled once and cached on disk, no GIL so threads can share work.
+#: Options shared by every kernel: compiled once, cached on disk, no GIL (threads can share work).
 NJIT_OPTIONS: dict[str, bool] = {"cache": True, "nogil": True, "fastmath": False}
 
 #: ``@NJIT`` is ``@njit(**NJIT_OPTIONS)``.

@@ -1,4 +1,4 @@
-"""Outputs of a run: ``summary.json``, ``arrays.npz``, PNG plots and ``report.md``, written atomically.
+"""Outputs of a run: ``summary.json``, ``arrays.npz``, PNG plots and ``report.md``, atomically.
 
 Everything is written into a fresh temporary folder beside the target and renamed into place at the
 end, so a crashed or refused run never leaves a half-written folder that looks complete.
@@ -53,7 +53,7 @@ def make_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
     fig, ax = plt.subplots(figsize=(7, 3.5))
     for i in range(a["site_signal_e"].shape[0]):
         ax.plot(a["block_t_s"], a["site_signal_e"][i], lw=0.8, label=f"site {i}")
-    ax.set(xlabel="time (s)", ylabel="signal per frame (e⁻)", title="Light curve at each site pixel")
+    ax.set(xlabel="time (s)", ylabel="signal per frame (e⁻)", title="Light curve at site pixels")
     if a["site_signal_e"].shape[0] <= 8:
         ax.legend(fontsize=7)
     plots.append(_save(fig, folder, "light_curve.png", "DSP output at each site's pixel"))

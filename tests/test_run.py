@@ -1,4 +1,4 @@
-"""End-to-end runs: reproducibility, the CLI, outputs, and the expected level against binned runs."""
+"""End-to-end runs: reproducibility, the CLI, outputs, and the expected level vs binned runs."""
 
 from __future__ import annotations
 
@@ -65,7 +65,7 @@ def test_expected_level_is_the_mean_of_binned_runs(small_toml):
     the binned runs within 35 % of the analytic noise (the sample std of 40 draws has ≈ 11 % rms
     relative error, so 35 % is > 3σ).
     """
-    # The fixed pattern is drawn from the seed too: switch it off so that only temporal noise varies.
+    # The fixed pattern is drawn from the seed too: switch it off, only temporal noise varies.
     # 16 dark frames keep the dark reference's noise, common to all flows of a run, from
     # dominating: flows of one run would otherwise not be independent samples.
     common = ["chip.pixel.dark_current_nA_per_cm2=2.0", "chip.pixel.prnu_frac=0",

@@ -49,7 +49,7 @@ class Schedule:
 
     @classmethod
     def from_chip(cls, chip: Chip, duration_s: float) -> Schedule:
-        """Derive the schedule: conversions from bit depth and ADC clock, DSP time from its clock."""
+        """Derive the schedule: conversions from bits and ADC clock, DSP time from its clock."""
         period = s_to_ticks(chip.timing.frame_period_s)
         words = chip.n_pixels * chip.samples_per_frame
         dsp_s = words * chip.dsp.cycles_per_sample / chip.dsp.clock_hz

@@ -65,7 +65,7 @@ def _sites(s: Scenario) -> None:
         ok = isinstance(rc, list) and len(rc) == 2 and all(type(v) is int for v in rc)
         if not ok or not (0 <= rc[0] < rows and 0 <= rc[1] < cols) or tuple(rc) in seen:
             _fail(s, "sites.at_pixels", rc,
-                  f"each entry must be a distinct [row, col] with 0 ≤ row < {rows}, 0 ≤ col < {cols}")
+                  f"each entry must be a distinct [row, col], 0 ≤ row < {rows}, 0 ≤ col < {cols}")
         seen.add(tuple(rc))
     if not seen:
         _fail(s, "sites.at_pixels", at, "must name at least one pixel")
@@ -78,7 +78,7 @@ def _optics(s: Scenario) -> None:
             if getattr(o, key) <= 0:
                 _fail(s, f"optics.{key}", getattr(o, key), "must be > 0 with lens coupling")
         if s.run.fidelity.optics == "psf":
-            _fail(s, "run.fidelity.optics", "psf", 'the psf level models contact coupling; use "na2"')
+            _fail(s, "run.fidelity.optics", "psf", 'psf models contact coupling; use "na2"')
     if s.sites.footprint_radius_um > s.chip.pitch_um:
         _fail(s, "sites.footprint_radius_um", s.sites.footprint_radius_um,
               f"must not exceed the pixel pitch {s.chip.pitch_um:g} µm")

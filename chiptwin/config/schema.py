@@ -128,7 +128,7 @@ class Adc:
 
     @property
     def conversion_time_s(self) -> float:
-        """One conversion: ``cycles_per_conversion`` (single slope: 2^bits) clock cycles. Unit: s."""
+        """One conversion: ``cycles_per_conversion`` (single slope: 2^bits) cycles. Unit: s."""
         cycles = self.cycles_per_conversion or 2**self.bits
         return cycles / self.clock_hz
 
@@ -146,7 +146,7 @@ class Dsp:
     """``[chip.dsp]``: the on-chip DSP (background subtraction, CMS, N-frame averaging)."""
 
     mode: str = param("float", choices=("float", "fixed", "rtl"))
-    n_dark_frames: int = param(16, kind=int, lo=1, hi=65536, doc="frames averaged into the dark ref")
+    n_dark_frames: int = param(16, kind=int, lo=1, hi=65536, doc="frames in the dark ref")
     cms_samples: int = param(4, kind=int, lo=1, hi=256, doc="M reset + M signal samples")
     average_frames: int = param(4, kind=int, lo=1, hi=65536, doc="N frames per output")
     clock_hz: float = param(50e6, lo=0.0, lo_open=True, doc="Hz (choice)")

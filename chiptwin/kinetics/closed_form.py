@@ -21,8 +21,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from chiptwin import _checks
 from chiptwin.constants import N_A
-from chiptwin.kinetics import _checks
 
 FloatOrArray = np.float64 | NDArray[np.float64]
 

@@ -20,7 +20,8 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from chiptwin.kinetics import _checks, _kernels
+from chiptwin import _checks
+from chiptwin.kinetics import _kernels
 
 
 def _site_indices(site: ArrayLike, n_sites: int) -> NDArray[np.int64]:

@@ -27,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from chiptwin.kinetics import _checks
+from chiptwin import _checks
 
 NUCLEOTIDES: str = "ACGT"
 """The letters a template or a flow order may contain (case-insensitive)."""

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from chiptwin import _checks
 from chiptwin.constants import N_A
-from chiptwin.kinetics import _checks
 from chiptwin.kinetics.closed_form import (
     ALPHA_SELIGER_MCELROY,
     ATP_TURNOVER_GLOW_PER_S,

