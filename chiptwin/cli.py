@@ -91,6 +91,10 @@ def _dispatch(args: argparse.Namespace) -> int:
     path = resolve_scenario(args.scenario)
     scenario = load_scenario(path, args.set, args.seed)
     if args.command == "validate":
+        from chiptwin.config.consistency import scenario_warnings
+
+        for warning in scenario_warnings(scenario):
+            print(f"chiptwin: warning: {warning}", file=sys.stderr)
         print(f"{path}: ok ({scenario.scenario.name})")
         return 0
     from chiptwin.report import headline, write_outputs

@@ -126,4 +126,13 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
                  f"{chip['memory_peak_frames']} frames of {chip['memory_capacity_frames']}, "
                  f"DSP utilisation {chip['dsp_utilization']:.3g}, overflows {chip['overflows']}"))
     rows += [(f"flag: {f}", "yes") for f in chip["flags"]]
+    dsp = summary["dsp"]
+    if dsp["level"] != "float":
+        rows.append((f"DSP ({dsp['level']})", f"overflow events {dsp['overflow_total']}"))
+    if "error_vs_float" in dsp:
+        e = dsp["error_vs_float"]
+        sqnr = "exact" if e["sqnr_db"] is None else f"{e['sqnr_db']:.1f} dB"
+        rows.append(("DSP error vs float", f"max {e['max_abs_err_lsb']:.3g} output LSB, bias "
+                     f"{e['bias_lsb']:.3g} LSB, SQNR {sqnr}"))
+    rows += [("warning", w) for w in summary.get("warnings", [])]
     return rows

@@ -13,7 +13,7 @@ import zlib
 from collections import defaultdict
 from collections.abc import Callable, Iterable
 from contextlib import contextmanager
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -22,8 +22,9 @@ import numpy as np
 from chiptwin import __version__, pixel, stages
 from chiptwin.chip import ChipRun, Recorder, Schedule, simulate_chip
 from chiptwin.config import Scenario, load_scenario
+from chiptwin.config.consistency import scenario_warnings
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, snr, window_sums
-from chiptwin.dsp.pipeline import Frame, Pipeline
+from chiptwin.dsp.pipeline import Frame, Pipeline, chain_for
 from chiptwin.kinetics import pyro
 
 
@@ -68,7 +69,7 @@ class ChainOutput:
     mean_e: np.ndarray
     var_e2: np.ndarray
     dark_var_e2: np.ndarray
-    meta: dict[str, Any] = field(default_factory=dict)
+    dsp: Pipeline
 
 
 def run(
@@ -118,6 +119,7 @@ def run(
         stage_time_s={k: round(v, 6) for k, v in timer.seconds.items()},
         wall_time_s=round(time.perf_counter() - t_start, 6),
         snr_definition=SNR_DEFINITION,
+        warnings=scenario_warnings(s),
     )
     return Result(summary=summary, arrays=arrays, trace=rec, scenario=s)
 
@@ -149,7 +151,9 @@ def simulate(s: Scenario, sch: Schedule, sensor: stages.SensorModel, pix_photons
                                           adc.offset_error_lsb, adc.gain_error)
         return Frame(codes=codes, mean=mean_e * to_lsb, var=var_e * to_lsb**2 + quant_var)
 
-    pipeline = _TimedPipeline(Pipeline(s.dsp_level), timer)
+    chain = chain_for(s.chip) if s.dsp_level == "fixed" else None
+    dsp = Pipeline(s.dsp_level, chain, report_error=s.chip.dsp.report_error)
+    pipeline = _TimedPipeline(dsp, timer)
     t0 = time.perf_counter()
     chip = simulate_chip(sch, read_frame, pipeline, rec, progress)
     inner = sum(timer.seconds[k] for k in ("pixel", "adc", "dsp"))
@@ -183,6 +187,7 @@ def _chain_output(chip: ChipRun, sch: Schedule, dsp: Pipeline, e_per_lsb: float)
         chip=chip, block_t_s=np.array(mids), value_e=stack("value") * e_per_lsb,
         mean_e=stack("mean") * e_per_lsb, var_e2=stack("var") * e_per_lsb**2,
         dark_var_e2=(dsp.dark_var if dsp.dark_var is not None else np.zeros(0)) * e_per_lsb**2,
+        dsp=dsp,
     )
 
 
@@ -215,6 +220,7 @@ def detect(s: Scenario, sch: Schedule, sensor: stages.SensorModel, out: ChainOut
     arrays["memory_t_s"] = np.array([t for t, _ in out.chip.occupancy]) / 1e9
     arrays["memory_frames"] = np.array([o for _, o in out.chip.occupancy])
     summary["chip"] = chip_figures(s, sch, out.chip)
+    summary["dsp"] = dsp_figures(out.dsp)
     return summary, arrays
 
 
@@ -321,3 +327,16 @@ def chip_figures(s: Scenario, sch: Schedule, chip: ChipRun) -> dict[str, Any]:
         "dsp_time_per_frame_s": sch.dsp_ns_per_frame / 1e9,
         "flags": flags,
     }
+
+
+def dsp_figures(dsp: Pipeline) -> dict[str, Any]:
+    """The DSP level, its registers, overflow counts and (when asked) fixed-vs-float error."""
+    out: dict[str, Any] = {"level": dsp.level}
+    if dsp.chain is not None:
+        out["registers"] = {step: {reg: fmt.q for reg, fmt in regs.items()}
+                            for step, regs in dsp.chain.registers().items()}
+    out["overflow"] = dsp.overflow
+    out["overflow_total"] = {k: sum(c[k] for c in dsp.overflow.values()) for k in ("sat", "wrap")}
+    if dsp.error is not None:
+        out["error_vs_float"] = dsp.error.summary()
+    return out

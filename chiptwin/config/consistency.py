@@ -8,6 +8,7 @@ from __future__ import annotations
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
 from chiptwin.constants import Q_E
+from chiptwin.dsp.fixed import accumulator_bits_needed
 
 BASES = frozenset("ACGT")
 
@@ -16,7 +17,7 @@ BUILT_LEVELS: dict[str, tuple[str, ...]] = {
     "kinetics": ("closed_form",),
     "photons": ("expected", "binned"),
     "optics": ("na2", "psf"),
-    "dsp": ("float",),
+    "dsp": ("float", "fixed"),
 }
 
 
@@ -143,3 +144,21 @@ def _duration(s: Scenario) -> None:
                   "averaged frames do not straddle flows")
     if s.run.duration_s < need:
         _fail(s, "run.duration_s", s.run.duration_s, f"must be ≥ {need:g} s for this assay")
+
+
+def scenario_warnings(s: Scenario) -> list[str]:
+    """Choices that run but that a chip architect should see: printed by ``validate``, kept in
+    ``summary['warnings']``."""
+    from chiptwin.dsp.pipeline import chain_for
+
+    warnings = []
+    d = s.chip.dsp
+    if d.acc_bits and s.dsp_level != "float":
+        in_fmt = chain_for(s.chip).average.in_fmt
+        needed = accumulator_bits_needed(in_fmt, d.average_frames)
+        if d.acc_bits < needed:
+            warnings.append(
+                f"{s.source}: chip.dsp.acc_bits = {d.acc_bits} is too narrow for "
+                f"average_frames = {d.average_frames} frames of {in_fmt.q}: {needed} bits never "
+                f"overflow; expect {d.acc_overflow} events (counted in summary['dsp'])")
+    return warnings

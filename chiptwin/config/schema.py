@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from chiptwin.config.fields import param
+from chiptwin.dsp.fmt import OVERFLOW_MODES, ROUNDING_MODES
 
 ASSAY_KINDS = ("pyrosequencing", "atp", "luciferase_label", "flux")
 
@@ -151,6 +152,12 @@ class Dsp:
     average_frames: int = param(4, kind=int, lo=1, hi=65536, doc="N frames per output")
     clock_hz: float = param(50e6, lo=0.0, lo_open=True, doc="Hz (choice)")
     cycles_per_sample: float = param(2.0, lo=0.0, lo_open=True, doc="DSP cycles per stored word")
+    # fixed point (mode "fixed"): formats derive from the ADC bits and M, K, N (chiptwin.dsp.chain)
+    rounding: str = param("RND_CONV", choices=ROUNDING_MODES, doc="every output register")
+    overflow: str = param("SAT", choices=OVERFLOW_MODES, doc="every output register")
+    acc_bits: int = param(0, kind=int, lo=0, hi=64, doc="N-frame accumulator; 0 = exact width")
+    acc_overflow: str = param("WRAP", choices=("WRAP", "SAT"), doc="N-frame accumulator")
+    report_error: bool = param(False, kind=bool, doc="run the float reference beside fixed")
 
 
 @dataclass(frozen=True)

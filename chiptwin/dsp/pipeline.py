@@ -1,4 +1,4 @@
-"""The DSP stage the chip model calls: CMS → dark-reference subtraction → N-frame averaging.
+"""The DSP stage the chip model calls: CMS → dark reference → background subtraction → averaging.
 
 Each frame carries the ADC's samples (``codes``, at the ``binned`` photon level) and, always, the
 analytic mean and variance of its CMS difference (the ``expected`` level). The pipeline runs the
@@ -9,11 +9,19 @@ noise. The dark reference's own noise is common to every output and kept apart
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from chiptwin.dsp import reference
+from chiptwin.dsp.chain import ChainConfig, chain_configs
+from chiptwin.dsp.fmt import Fmt
+from chiptwin.dsp.frame_ops import average_frames_fixed, cms_fixed, subtract_background_fixed
+from chiptwin.dsp.registers import FixedResult
+
+if TYPE_CHECKING:
+    from chiptwin.config.schema import Chip
 
 
 @dataclass(frozen=True)
@@ -50,24 +58,78 @@ class BlockOut:
     var: np.ndarray
 
 
+def chain_for(chip: Chip) -> ChainConfig:
+    """The fixed-point chain of a scenario's chip: formats from the ADC bits and M, K, N.
+
+    ``[chip.dsp] acc_bits`` (if not 0) narrows the N-frame accumulator, with ``acc_overflow``.
+    """
+    d = chip.dsp
+    chain = chain_configs(chip.adc.bits, d.cms_samples, d.n_dark_frames, d.average_frames,
+                          rounding=d.rounding, overflow=d.overflow)
+    if not d.acc_bits:
+        return chain
+    avg = chain.average
+    acc = Fmt(True, d.acc_bits, avg.in_fmt.frac_bits)
+    return replace(chain, average=replace(avg, acc_fmt=acc, acc_overflow=d.acc_overflow))
+
+
+@dataclass
+class ErrorStats:
+    """Running fixed-vs-float error of the pipeline's outputs, in output LSB."""
+
+    lsb: float
+    n: int = 0
+    max_abs_lsb: float = 0.0
+    sum_lsb: float = 0.0
+    sum_sq_err: float = 0.0
+    sum_sq_ref: float = 0.0
+
+    def add(self, fixed: np.ndarray, ref: np.ndarray) -> None:
+        err = (fixed - ref) / self.lsb
+        self.n += err.size
+        self.max_abs_lsb = max(self.max_abs_lsb, float(np.max(np.abs(err), initial=0.0)))
+        self.sum_lsb += float(err.sum())
+        self.sum_sq_err += float(np.sum((fixed - ref) ** 2))
+        self.sum_sq_ref += float(np.sum(ref**2))
+
+    def summary(self) -> dict[str, float | int | None]:
+        """``max_abs_err_lsb``, ``bias_lsb``, ``sqnr_db`` (None when the outputs are exact)."""
+        sqnr = (10 * np.log10(self.sum_sq_ref / self.sum_sq_err) if self.sum_sq_err > 0
+                and self.sum_sq_ref > 0 else None)
+        return {"outputs": self.n, "max_abs_err_lsb": self.max_abs_lsb,
+                "bias_lsb": self.sum_lsb / max(self.n, 1),
+                "sqnr_db": None if sqnr is None else float(sqnr)}
+
+
 class Pipeline:
-    """Background subtraction, correlated multiple sampling and N-frame averaging.
+    """CMS → dark reference → background subtraction → N-frame averaging, at one DSP level.
 
     Parameters
     ----------
     level : str
-        ``"float"``: the float reference (:mod:`chiptwin.dsp.reference`).
+        ``"float"``: the float reference (:mod:`chiptwin.dsp.reference`). ``"fixed"``: the
+        bit-accurate chain (:mod:`chiptwin.dsp.chain`), overflow counted per register.
+    chain : ChainConfig, optional
+        Register formats; required for ``"fixed"``.
+    report_error : bool
+        With ``"fixed"``, run the float reference beside it and keep :class:`ErrorStats`.
     """
 
-    LEVELS = ("float",)
+    LEVELS = ("float", "fixed")
 
-    def __init__(self, level: str = "float") -> None:
+    def __init__(self, level: str = "float", chain: ChainConfig | None = None,
+                 report_error: bool = False) -> None:
         if level not in self.LEVELS:
             raise ValueError(f"DSP level {level!r} is not built; built: {self.LEVELS}")
-        self.level = level
-        self.dark_value: np.ndarray | None = None
+        if level == "fixed" and chain is None:
+            raise ValueError("the fixed DSP level needs its register formats (chain)")
+        self.level, self.chain = level, chain
         self.dark_mean: np.ndarray | None = None
         self.dark_var: np.ndarray | None = None
+        self.overflow: dict[str, dict[str, int]] = {}
+        self.error = ErrorStats(chain.average.out_fmt.lsb) if report_error and chain else None
+        self._dark_float: np.ndarray | None = None
+        self._dark_codes: np.ndarray | None = None
 
     def dark(self, frames: list[Frame]) -> None:
         """Average K dark frames into the dark reference."""
@@ -75,25 +137,55 @@ class Pipeline:
         self.dark_mean = np.mean([f.mean for f in frames], axis=0)
         self.dark_var = np.sum([f.var for f in frames], axis=0) / k**2
         if frames[0].codes is None:
-            self.dark_value = self.dark_mean
-        else:
-            self.dark_value = reference.average_frames(self._cms(frames), k)[0]
+            self._dark_float = self.dark_mean
+            return
+        if self.level == "float" or self.error is not None:
+            self._dark_float = reference.average_frames(self._cms_float(frames), k)[0]
+        if self.level == "fixed":
+            cms = self._fixed("cms", cms_fixed(*self._split(frames), self.chain.cms))
+            self._dark_codes = self._fixed("dark", average_frames_fixed(cms, self.chain.dark))[0]
 
     def block(self, frames: list[Frame]) -> BlockOut:
         """Subtract the dark reference from N frames and average them."""
-        if self.dark_value is None:
+        if self.dark_mean is None:
             raise RuntimeError("Pipeline.block called before the dark reference was taken")
         n = len(frames)
         mean = np.mean([f.mean for f in frames], axis=0) - self.dark_mean
         var = np.sum([f.var for f in frames], axis=0) / n**2
         if frames[0].codes is None:
             return BlockOut(value=mean, mean=mean, var=var)
-        diff = reference.subtract_background(self._cms(frames), self.dark_value)
-        return BlockOut(value=reference.average_frames(diff, n)[0], mean=mean, var=var)
+        ref = None
+        if self.level == "float" or self.error is not None:
+            diff = reference.subtract_background(self._cms_float(frames), self._dark_float)
+            ref = reference.average_frames(diff, n)[0]
+        if self.level == "float":
+            return BlockOut(value=ref, mean=mean, var=var)
+        c = self.chain
+        cms = self._fixed("cms", cms_fixed(*self._split(frames), c.cms))
+        diff = self._fixed("background", subtract_background_fixed(cms, self._dark_codes,
+                                                                    c.background))
+        value = c.average.out_fmt.to_float(
+            self._fixed("average", average_frames_fixed(diff, c.average))[0])
+        if self.error is not None:
+            self.error.add(value, ref)
+        return BlockOut(value=value, mean=mean, var=var)
+
+    def _fixed(self, step: str, result: FixedResult) -> np.ndarray:
+        """Book a routine's overflow counts under ``step.register``; return its codes."""
+        for reg, counts in result.overflow.items():
+            book = self.overflow.setdefault(f"{step}.{reg}", {"sat": 0, "wrap": 0})
+            for kind, n in counts.items():
+                book[kind] += n
+        return result.codes
 
     @staticmethod
-    def _cms(frames: list[Frame]) -> np.ndarray:
-        """CMS of each frame: ``(n_frames, n_pixels)``."""
+    def _split(frames: list[Frame]) -> tuple[np.ndarray, np.ndarray]:
+        """Reset and signal samples: two ``(n_frames, M, n_pixels)`` arrays."""
         codes = np.stack([f.codes for f in frames])
         m = codes.shape[1] // 2
-        return reference.correlated_multiple_sampling(codes[:, :m], codes[:, m:])
+        return codes[:, :m], codes[:, m:]
+
+    @classmethod
+    def _cms_float(cls, frames: list[Frame]) -> np.ndarray:
+        """CMS of each frame: ``(n_frames, n_pixels)``."""
+        return reference.correlated_multiple_sampling(*cls._split(frames))
