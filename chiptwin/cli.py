@@ -33,6 +33,9 @@ def build_parser() -> argparse.ArgumentParser:
     v = sub.add_parser("validate", help="check a scenario file without running it")
     _scenario_args(v)
     sub.add_parser("list", help="list the bundled scenarios")
+    d = sub.add_parser("dsp-report", help="fixed-point DSP vs float on a scenario's data")
+    _scenario_args(d)
+    d.add_argument("--json", help="also write the report as JSON to this file")
     return p
 
 
@@ -97,6 +100,8 @@ def _dispatch(args: argparse.Namespace) -> int:
             print(f"chiptwin: warning: {warning}", file=sys.stderr)
         print(f"{path}: ok ({scenario.scenario.name})")
         return 0
+    if args.command == "dsp-report":
+        return _dsp_report(scenario, args.json)
     from chiptwin.report import headline, write_outputs
     from chiptwin.run import run
 
@@ -107,6 +112,21 @@ def _dispatch(args: argparse.Namespace) -> int:
         for key, value in headline(result.summary):
             print(f"  {key:28s} {value}")
         print(f"  outputs in {out}/ (summary.json, arrays.npz, report.md, plots)")
+    return 0
+
+
+def _dsp_report(scenario, json_path: str | None) -> int:
+    import json
+
+    from chiptwin.dsp.errors import format_error_table
+    from chiptwin.dsp.scenario_report import dsp_report
+    from chiptwin.run import stage_rng
+
+    report = dsp_report(scenario, stage_rng(scenario.scenario.seed, "dsp_stress"))
+    print(format_error_table(report))
+    print(f"all bounds met: {report['all_bounds_ok']}")
+    if json_path:
+        Path(json_path).write_text(json.dumps(report, indent=2) + "\n")
     return 0
 
 

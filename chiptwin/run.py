@@ -96,20 +96,12 @@ def run(
     else:
         s = load_scenario(scenario, overrides, seed)
     timer = StageTimer()
-    sch = Schedule.from_chip(s.chip, s.run.duration_s)
-    with timer("kinetics"):
-        source = stages.light_source(s)
-        edges = np.array([sch.window_s(k) for k in range(sch.n_frames)]).reshape(-1)
-        site_photons = source.photons(edges)[:, ::2]
-    with timer("optics"):
-        pix_photons = stages.coupling(s) @ site_photons
-    sensor = stages.sensor_model(s, stage_rng(s.scenario.seed, "fixed_pattern"))
+    scene = prepare(s, timer)
     rec = Recorder()
-    out = simulate(s, sch, sensor, pix_photons, s.run.fidelity.photons,
-                   stage_rng(s.scenario.seed, "pixel"), rec, timer, progress)
+    out = simulate(s, scene, s.run.fidelity.photons, stage_rng(s.scenario.seed, "pixel"), rec,
+                   timer, progress)
     with timer("detection"):
-        summary, arrays = detect(s, sch, sensor, out, pix_photons)
-        arrays["site_photons"] = site_photons
+        summary, arrays = detect(s, scene, out)
     summary.update(
         scenario=s.scenario.name, description=s.scenario.description, seed=s.scenario.seed,
         chiptwin_version=__version__,
@@ -124,11 +116,38 @@ def run(
     return Result(summary=summary, arrays=arrays, trace=rec, scenario=s)
 
 
-def simulate(s: Scenario, sch: Schedule, sensor: stages.SensorModel, pix_photons: np.ndarray,
-             photons_level: str, rng: np.random.Generator, rec: Recorder,
-             timer: StageTimer | None = None, progress=None) -> ChainOutput:
+@dataclass(frozen=True)
+class Scene:
+    """What the chip sees: its schedule, the light per site and per pixel, and its sensor."""
+
+    sch: Schedule
+    site_photons: np.ndarray
+    coupling: np.ndarray
+    pix_photons: np.ndarray
+    sensor: stages.SensorModel
+
+
+def prepare(s: Scenario, timer: StageTimer | None = None) -> Scene:
+    """Kinetics and optics: photons per site and per pixel in every integration window."""
+    timer = timer or StageTimer()
+    sch = Schedule.from_chip(s.chip, s.run.duration_s)
+    with timer("kinetics"):
+        source = stages.light_source(s)
+        edges = np.array([sch.window_s(k) for k in range(sch.n_frames)]).reshape(-1)
+        site_photons = source.photons(edges)[:, ::2]
+    with timer("optics"):
+        coupling = stages.coupling(s)
+        pix_photons = coupling @ site_photons
+    sensor = stages.sensor_model(s, stage_rng(s.scenario.seed, "fixed_pattern"))
+    return Scene(sch, site_photons, coupling, pix_photons, sensor)
+
+
+def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Generator,
+             rec: Recorder, timer: StageTimer | None = None, progress=None,
+             keep_codes: bool = False) -> ChainOutput:
     """Pixel → ADC → memory → DSP through the chip model, for photons per pixel per frame."""
     timer = timer or StageTimer()
+    sch, sensor, pix_photons = scene.sch, scene.sensor, scene.pix_photons
     adc = s.chip.adc
     t_int = s.chip.timing.t_int_s
     to_lsb = (1.0 + adc.gain_error) / sensor.e_per_lsb
@@ -152,7 +171,8 @@ def simulate(s: Scenario, sch: Schedule, sensor: stages.SensorModel, pix_photons
         return Frame(codes=codes, mean=mean_e * to_lsb, var=var_e * to_lsb**2 + quant_var)
 
     chain = chain_for(s.chip) if s.dsp_level == "fixed" else None
-    dsp = Pipeline(s.dsp_level, chain, report_error=s.chip.dsp.report_error)
+    dsp = Pipeline(s.dsp_level, chain, report_error=s.chip.dsp.report_error,
+                   keep_codes=keep_codes)
     pipeline = _TimedPipeline(dsp, timer)
     t0 = time.perf_counter()
     chip = simulate_chip(sch, read_frame, pipeline, rec, progress)
@@ -191,16 +211,17 @@ def _chain_output(chip: ChipRun, sch: Schedule, dsp: Pipeline, e_per_lsb: float)
     )
 
 
-def detect(s: Scenario, sch: Schedule, sensor: stages.SensorModel, out: ChainOutput,
-           pix_photons: np.ndarray) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def detect(s: Scenario, scene: Scene, out: ChainOutput
+           ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Per-site estimates, decisions, base calls, and the chip's figures."""
+    sch = scene.sch
     rc = stages.site_pixels(s)
     idx = rc[:, 0] * s.chip.cols + rc[:, 1]
     n_avg = s.chip.dsp.average_frames
     arrays: dict[str, np.ndarray] = {
         "block_t_s": out.block_t_s, "site_pixel_index": idx,
         "site_signal_e": out.value_e[:, idx].T / 1.0,
-        "pixel_photons": pix_photons,
+        "pixel_photons": scene.pix_photons, "site_photons": scene.site_photons,
     }
     summary: dict[str, Any] = {}
     if s.assay.kind == "pyrosequencing":
@@ -212,7 +233,7 @@ def detect(s: Scenario, sch: Schedule, sensor: stages.SensorModel, out: ChainOut
         sites = _site_rows(s, rc, sums[0, idx], np.sqrt(var[0, idx]), out, idx)
     summary["sites"] = sites
     if s.assay.kind == "flux":
-        summary["required_flux_photons_per_s_per_um2"] = _required_flux(s, sch, sensor, out, idx)
+        summary["required_flux_photons_per_s_per_um2"] = _required_flux(s, scene, out, idx)
     peak = int(np.argmax(out.value_e[:, idx].sum(axis=1))) if len(out.value_e) else 0
     arrays["peak_frame_e"] = (out.value_e[peak] if len(out.value_e) else
                               np.zeros(s.chip.n_pixels)).reshape(s.chip.rows, s.chip.cols)
@@ -283,14 +304,14 @@ def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
                       peak_window=np.isin(flow_of_block, ones))
 
 
-def _required_flux(s, sch, sensor, out: ChainOutput, idx) -> float:
+def _required_flux(s: Scenario, scene: Scene, out: ChainOutput, idx: np.ndarray) -> float:
     """Flux at the diode that gives power SNR = ``run.detection_snr_power`` (site 0).
 
     The estimator's variance is linear in the signal, var = var0 + k·S; var0 comes from the
     same chain run in darkness at the ``expected`` level, k from this run's expected values.
     """
-    dark = simulate(s, sch, sensor, np.zeros((s.chip.n_pixels, sch.n_frames)), "expected",
-                    np.random.default_rng(0), Recorder())
+    darkness = replace(scene, pix_photons=np.zeros_like(scene.pix_photons))
+    dark = simulate(s, darkness, "expected", np.random.default_rng(0), Recorder())
     edges = np.array([s.assay.start_s, s.run.duration_s])
     n = s.chip.dsp.average_frames
     sig, var = window_sums(out.block_t_s, out.mean_e, out.var_e2, out.dark_var_e2, n, edges)

@@ -118,7 +118,7 @@ class Pipeline:
     LEVELS = ("float", "fixed")
 
     def __init__(self, level: str = "float", chain: ChainConfig | None = None,
-                 report_error: bool = False) -> None:
+                 report_error: bool = False, keep_codes: bool = False) -> None:
         if level not in self.LEVELS:
             raise ValueError(f"DSP level {level!r} is not built; built: {self.LEVELS}")
         if level == "fixed" and chain is None:
@@ -130,9 +130,12 @@ class Pipeline:
         self.error = ErrorStats(chain.average.out_fmt.lsb) if report_error and chain else None
         self._dark_float: np.ndarray | None = None
         self._dark_codes: np.ndarray | None = None
+        #: With ``keep_codes``: every frame's ADC samples as read, ``(2M, n_pixels)`` each.
+        self.kept: list[np.ndarray] | None = [] if keep_codes else None
 
     def dark(self, frames: list[Frame]) -> None:
         """Average K dark frames into the dark reference."""
+        self._keep(frames)
         k = len(frames)
         self.dark_mean = np.mean([f.mean for f in frames], axis=0)
         self.dark_var = np.sum([f.var for f in frames], axis=0) / k**2
@@ -149,6 +152,7 @@ class Pipeline:
         """Subtract the dark reference from N frames and average them."""
         if self.dark_mean is None:
             raise RuntimeError("Pipeline.block called before the dark reference was taken")
+        self._keep(frames)
         n = len(frames)
         mean = np.mean([f.mean for f in frames], axis=0) - self.dark_mean
         var = np.sum([f.var for f in frames], axis=0) / n**2
@@ -189,3 +193,7 @@ class Pipeline:
     def _cms_float(cls, frames: list[Frame]) -> np.ndarray:
         """CMS of each frame: ``(n_frames, n_pixels)``."""
         return reference.correlated_multiple_sampling(*cls._split(frames))
+
+    def _keep(self, frames: list[Frame]) -> None:
+        if self.kept is not None and frames[0].codes is not None:
+            self.kept.extend(f.codes for f in frames)
