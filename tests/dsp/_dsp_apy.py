@@ -18,9 +18,9 @@ from fractions import Fraction
 
 import apytypes as apy
 import numpy as np
-from _dsp_exact import exact_round
 
 from chiptwin.dsp.fixed import Fmt
+from tests.dsp._dsp_exact import exact_round
 
 assert apy.__version__ == "0.5.1", apy.__version__
 

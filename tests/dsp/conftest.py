@@ -1,22 +1,9 @@
-"""Fixtures and markers of the DSP tests."""
+"""Fixtures of the DSP tests (the oracles live in _dsp_exact and _dsp_apy)."""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).parent))  # the helper modules _dsp_exact, _dsp_apy
-
-
-def pytest_configure(config: pytest.Config) -> None:
-    config.addinivalue_line(
-        "markers",
-        "apytypes_1e6: bit-exact cross-check against APyTypes on ≥ 1e6 vectors (runs by default; "
-        "deselect with -m 'not apytypes_1e6' for a quick loop)",
-    )
 
 
 @pytest.fixture

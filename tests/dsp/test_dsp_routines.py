@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 
-import _dsp_exact as ex
 import numpy as np
 import pytest
 
@@ -34,6 +33,7 @@ from chiptwin.dsp.frame_ops import (
     subtract_background_fixed,
 )
 from chiptwin.dsp.stress import default_configs, random_codes, stress_coupling, stress_inputs
+from tests.dsp import _dsp_exact as ex
 
 ROUTINES = ("background", "cms", "accumulate", "average", "binning", "kinetics", "fir", "wiener")
 

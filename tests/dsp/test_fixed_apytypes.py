@@ -9,7 +9,6 @@ exercised at the accumulator and at the output.
 
 from __future__ import annotations
 
-import _dsp_apy as apy_oracle
 import numpy as np
 import pytest
 
@@ -35,6 +34,7 @@ from chiptwin.dsp.frame_ops import (
     subtract_background_fixed,
 )
 from chiptwin.dsp.stress import random_codes, stress_coupling, stress_inputs
+from tests.dsp import _dsp_apy as apy_oracle
 
 MILLION = 1_000_000
 APY_OVERFLOWS = ("WRAP", "SAT")  # APyTypes has no SAT_SYM (checked against Fraction instead)

@@ -14,7 +14,6 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from _dsp_exact import exact_fit, exact_quantize, exact_requantize, exact_round, value
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -32,6 +31,7 @@ from chiptwin.dsp.fixed import (
     requantize,
     sub,
 )
+from tests.dsp._dsp_exact import exact_fit, exact_quantize, exact_requantize, exact_round, value
 
 EXAMPLES = int(os.environ.get("CHIPTWIN_DSP_EXAMPLES", "200"))
 """Examples per property; raise it for a soak run (``CHIPTWIN_DSP_EXAMPLES=20000``)."""
