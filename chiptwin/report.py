@@ -59,8 +59,11 @@ def make_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
     plots.append(_save(fig, folder, "light_curve.png", "DSP output at each site's pixel"))
 
     fig, ax = plt.subplots(figsize=(7, 3.5))
-    im = ax.imshow(a["peak_frame_e"], cmap="magma", interpolation="nearest")
-    fig.colorbar(im, ax=ax, label="e⁻ per frame")
+    # Symmetric log scale: the optical cross-talk into neighbours is orders below the site.
+    norm = matplotlib.colors.SymLogNorm(linthresh=100.0, vmin=min(0.0, a["peak_frame_e"].min()),
+                                        vmax=max(a["peak_frame_e"].max(), 1000.0))
+    im = ax.imshow(a["peak_frame_e"], cmap="magma", interpolation="nearest", norm=norm)
+    fig.colorbar(im, ax=ax, label="e⁻ per frame (symmetric log)")
     ax.set(title=f"DSP output frame at t = {float(a['peak_frame_t_s']):.1f} s", xlabel="column",
            ylabel="row")
     plots.append(_save(fig, folder, "frame.png", "The brightest DSP output frame"))
