@@ -7,6 +7,13 @@ sources (:mod:`~chiptwin.kinetics.sources`) of one common shape, the :class:`Pul
 integral. Pyrosequencing's dispensation program, key normalisation and base calling live in
 :mod:`~chiptwin.kinetics.pyro`.
 
+Level ``cascade`` (issue 5): the multi-enzyme pyrosequencing cascade as a stiff ODE
+(:mod:`~chiptwin.kinetics.cascade`, constants in :mod:`~chiptwin.kinetics.cascade_params`,
+phasing in :mod:`~chiptwin.kinetics.phasing`, calibration in :mod:`~chiptwin.kinetics.calibrate`)
+and the reversible mass-action reaction of eqs. 2–4 (:mod:`~chiptwin.kinetics.reversible`). These
+names are exported lazily (PEP 562): ``import chiptwin.kinetics`` does not load scipy's ODE
+solvers until one of them is used.
+
 Contract (docs/architecture.md): a light source has ``rate(t_s) -> (n_sites, n_t)`` in photons/s
 and ``photons(t_edges_s) -> (n_sites, n_windows)``, the exact integral over each window.
 """
@@ -56,6 +63,36 @@ from chiptwin.kinetics.sources import (
     substrate_detection,
 )
 
+_LAZY: dict[str, str] = {
+    "CascadeParams": "chiptwin.kinetics.cascade_params",
+    "CascadeSource": "chiptwin.kinetics.cascade",
+    "cascade_pyrosequencing": "chiptwin.kinetics.cascade",
+    "CalibrationResult": "chiptwin.kinetics.calibrate",
+    "fit_light_curve": "chiptwin.kinetics.calibrate",
+    "fit_photon_yield": "chiptwin.kinetics.calibrate",
+    "photon_yield": "chiptwin.kinetics.calibrate",
+    "single_flow_rate": "chiptwin.kinetics.calibrate",
+    "phased_flows": "chiptwin.kinetics.phasing",
+    "reversible_photons": "chiptwin.kinetics.reversible",
+    "reversible_product_M": "chiptwin.kinetics.reversible",
+    "reversible_rate": "chiptwin.kinetics.reversible",
+    "reversible_source": "chiptwin.kinetics.reversible",
+    "solve_reversible": "chiptwin.kinetics.reversible",
+}
+"""Exports of the cascade level, imported on first use (they pull in scipy's ODE solvers)."""
+
+
+def __getattr__(name: str):
+    """Import a lazily exported name (:data:`_LAZY`) on first access (PEP 562)."""
+    if name in _LAZY:
+        from importlib import import_module
+
+        value = getattr(import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 __all__ = [
     "ALPHA_ANDO",
     "ALPHA_SELIGER_MCELROY",
@@ -94,4 +131,5 @@ __all__ = [
     "substrate_detection_photons",
     "substrate_detection_rate",
     "superpose",
+    *_LAZY,
 ]
