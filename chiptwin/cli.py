@@ -148,10 +148,10 @@ class _Progress:
         now = time.perf_counter()
         if now - self.last >= 1.0 or (done == total and now - self.t0 > 2.0):
             self.last = now
-            print(f"\r  frames {done}/{total} ({100 * done / total:.0f} %)", end="",
-                  file=sys.stderr, flush=True)
-            if done == total:
-                print(file=sys.stderr)
+            tty = sys.stderr.isatty()
+            start = "\r" if tty else ""
+            print(f"{start}  frames {done}/{total} ({100 * done / total:.0f} %)",
+                  end="" if tty and done < total else "\n", file=sys.stderr, flush=True)
 
 
 def entry() -> None:

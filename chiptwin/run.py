@@ -70,6 +70,7 @@ class ChainOutput:
     var_e2: np.ndarray
     dark_var_e2: np.ndarray
     dsp: Pipeline
+    saturation_s: np.ndarray | None = None  # events level: (n_frames, n_sites), inf = not full
 
 
 def run(
@@ -121,6 +122,7 @@ class Scene:
     """What the chip sees: its schedule, the light per site and per pixel, and its sensor."""
 
     sch: Schedule
+    source: stages.LightSource
     site_photons: np.ndarray
     coupling: np.ndarray
     pix_photons: np.ndarray
@@ -139,7 +141,7 @@ def prepare(s: Scenario, timer: StageTimer | None = None) -> Scene:
         coupling = stages.coupling(s)
         pix_photons = coupling @ site_photons
     sensor = stages.sensor_model(s, stage_rng(s.scenario.seed, "fixed_pattern"))
-    return Scene(sch, site_photons, coupling, pix_photons, sensor)
+    return Scene(sch, source, site_photons, coupling, pix_photons, sensor)
 
 
 def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Generator,
@@ -155,12 +157,23 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
     args = (sensor.qe, sensor.gain_map, sensor.dark_e_per_s * t_int, sensor.full_well_e,
             sensor.ktc_e, sensor.read_noise_e, sensor.cms_samples, sensor.true_cds)
 
+    events = None
+    if photons_level == "events":
+        events = stages.EventPixels(scene.source, scene.coupling, site_pixel_indices(s), sensor,
+                                    stage_rng(s.scenario.seed, "events"))
+
     def read_frame(k: int) -> Frame:
         photons = pix_photons[:, k]
         with timer("pixel"):
             mean_e, var_e = pixel.expected_frame(photons, *args)
-            samples = None if photons_level == "expected" else pixel.sample_frame(
-                rng, photons, *args)
+            samples = None
+            if photons_level == "binned":
+                samples = pixel.sample_frame(rng, photons, *args)
+            elif events is not None:
+                lam = pixel.mean_electrons(photons, sensor.qe, sensor.gain_map, args[2])
+                collected = np.minimum(rng.poisson(lam), sensor.full_well_e)
+                collected[events.pixels] = events.collect(*sch.window_s(k))
+                samples = pixel.read_out(rng, collected, *args[4:])
         with timer("adc"):
             codes = None
             if samples is not None:
@@ -178,7 +191,16 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
     chip = simulate_chip(sch, read_frame, pipeline, rec, progress)
     inner = sum(timer.seconds[k] for k in ("pixel", "adc", "dsp"))
     timer.seconds["memory"] += time.perf_counter() - t0 - inner  # the event engine itself
-    return _chain_output(chip, sch, pipeline.inner, sensor.e_per_lsb)
+    out = _chain_output(chip, sch, pipeline.inner, sensor.e_per_lsb)
+    if events is not None:
+        out.saturation_s = np.array(events.saturation_s).reshape(-1, len(events.pixels))
+    return out
+
+
+def site_pixel_indices(s: Scenario) -> np.ndarray:
+    """Index (row-major) of the pixel under each site."""
+    rc = stages.site_pixels(s)
+    return rc[:, 0] * s.chip.cols + rc[:, 1]
 
 
 class _TimedPipeline:
@@ -216,7 +238,7 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     """Per-site estimates, decisions, base calls, and the chip's figures."""
     sch = scene.sch
     rc = stages.site_pixels(s)
-    idx = rc[:, 0] * s.chip.cols + rc[:, 1]
+    idx = site_pixel_indices(s)
     n_avg = s.chip.dsp.average_frames
     arrays: dict[str, np.ndarray] = {
         "block_t_s": out.block_t_s, "site_pixel_index": idx,
@@ -231,6 +253,12 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
         sums, var = window_sums(out.block_t_s, out.value_e, out.var_e2, out.dark_var_e2, n_avg,
                                 edges)
         sites = _site_rows(s, rc, sums[0, idx], np.sqrt(var[0, idx]), out, idx)
+    if out.saturation_s is not None:
+        for i, site in enumerate(sites):
+            t = out.saturation_s[:, i]
+            site["saturated_frames"] = int(np.isfinite(t).sum())
+            site["first_saturation_s"] = float(t[np.isfinite(t)][0]) if site[
+                "saturated_frames"] else None
     summary["sites"] = sites
     if s.assay.kind == "flux":
         summary["required_flux_photons_per_s_per_um2"] = _required_flux(s, scene, out, idx)

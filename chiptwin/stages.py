@@ -10,9 +10,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from chiptwin import kinetics, optics, pixel
+from chiptwin import kinetics, optics, photons, pixel
 from chiptwin.config import Scenario
 from chiptwin.kinetics import pyro
+from chiptwin.kinetics.light_source import LightSource
 from chiptwin.kinetics.pulse_train import PulseTrain
 
 FMOL, AMOL = 1e-15, 1e-18
@@ -35,13 +36,19 @@ def flow_program(s: Scenario) -> tuple[list[str], np.ndarray]:
     return pyro.flow_incorporations(a.template, a.flow_order, a.n_flows)
 
 
-def light_source(s: Scenario) -> PulseTrain:
-    """The closed-form light of every site (Salama et al. 2004, eqs. 12, 13, 19). Unit: photons/s.
+def light_source(s: Scenario) -> LightSource:
+    """The light of every site. Unit: photons/s.
+
+    ``closed_form``: Salama et al. 2004, eqs. 12, 13, 19. ``cascade`` (pyrosequencing only): the
+    multi-enzyme ODE (:mod:`chiptwin.kinetics.cascade`) in the paper's limit set by k_t and k_a;
+    with a measured photon yield, the luciferase amount is fitted to give that yield.
 
     The ``flux`` kind gives light at the sensor plane instead: photons/s on the diode under each
     site (flux × diode area), with :func:`coupling` passing it straight through.
     """
     a, n = s.assay, len(site_pixels(s))
+    if s.run.fidelity.kinetics == "cascade":
+        return _cascade_source(s, n)
     if a.kind == "pyrosequencing":
         _, n_inc = flow_program(s)
         return kinetics.pyrosequencing(
@@ -59,6 +66,17 @@ def light_source(s: Scenario) -> PulseTrain:
     return PulseTrain(site=np.arange(n), onset_s=np.full(n, a.start_s),
                       amplitude_per_s=np.full(n, a.photons_per_s_per_um2 * area),
                       decay_per_s=np.zeros(n), n_sites=n)
+
+
+def _cascade_source(s: Scenario, n: int) -> LightSource:
+    a = s.assay
+    params = kinetics.CascadeParams.from_closed_form(a.k_t_per_s, a.k_a_per_s, a.quantum_yield)
+    if a.photons_per_incorporation:
+        params = kinetics.fit_photon_yield(a.photons_per_incorporation, params,
+                                           dna_mol=a.dna_fmol * FMOL).params
+    return kinetics.cascade_pyrosequencing(np.full(n, a.dna_fmol * FMOL), a.template,
+                                           a.flow_order, a.n_flows, a.flow_period_s, a.start_s,
+                                           params)
 
 
 def coupling(s: Scenario) -> np.ndarray:
@@ -118,3 +136,60 @@ def sensor_model(s: Scenario, rng: np.random.Generator) -> SensorModel:
         conversion_gain_uV_per_e=cg, pedestal_V=px.pedestal_V, lsb_V=lsb,
         e_per_lsb=lsb / (cg * 1e-6),
     )
+
+
+class EventPixels:
+    """The ``events`` photon level for the pixels under the sites: timing inside a window.
+
+    Photons arrive as an inhomogeneous Poisson process, are thinned by QE × gain and merged with
+    dark electrons; the collected charge is their count, clipped at the full well, and the time the
+    well filled is kept (which counts per window cannot give). Below :attr:`MAX_EVENTS` expected
+    electrons per window every arrival is drawn (:func:`chiptwin.photons.arrival_times`). Above
+    it, the count N is drawn first (exact Poisson of the integral) and, if the well fills, its
+    filling time is the ``need``-th of N arrivals, i.e. ``Λ⁻¹(Λ(T)·B)`` with
+    ``B ~ Beta(need, N − need + 1)`` (order statistics of N i.i.d. arrivals with density ∝ rate):
+    the same joint distribution without drawing 1e9 photons. Other pixels stay ``binned``.
+    """
+
+    MAX_EVENTS = 20_000  # above this, order statistics give the same joint law at no cost
+
+    def __init__(self, source: LightSource, coupling: np.ndarray, pixels: np.ndarray,
+                 sensor: SensorModel, rng: np.random.Generator) -> None:
+        self.source, self.weights, self.pixels = source, coupling[pixels], pixels
+        self.qe = sensor.qe * sensor.gain_map[pixels]
+        self.dark = sensor.dark_e_per_s[pixels]
+        self.need = int(np.ceil(sensor.full_well_e))
+        self.rng = rng
+        self.saturation_s: list[np.ndarray] = []
+
+    def electrons_until(self, t0_s: float, t_s: np.ndarray) -> np.ndarray:
+        """Λ(t): expected electrons of each site pixel from ``t0_s`` to ``t_s`` (one t each)."""
+        photons = np.array([self.weights[p] @ self.source.photons(np.array([t0_s, t]))[:, 0]
+                            for p, t in enumerate(t_s)])
+        return self.qe * photons + self.dark * (t_s - t0_s)
+
+    def collect(self, t0_s: float, t1_s: float) -> np.ndarray:
+        """Collected electrons of the site pixels in one window; records saturation times."""
+        total = self.electrons_until(t0_s, np.full(len(self.pixels), t1_s))
+        if total.sum() <= self.MAX_EVENTS:
+            ev = photons.arrival_times(self.source, t0_s, t1_s, self.rng, weights=self.weights)
+            el = photons.detected_electrons(ev, self.rng, qe=self.qe, dark_e_per_s=self.dark)
+            counts = np.diff(el.offsets)
+            sat = [el.pixel(p)[self.need - 1] if counts[p] >= self.need else np.inf
+                   for p in range(len(self.pixels))]
+        else:
+            counts = self.rng.poisson(total)
+            full = counts >= self.need
+            b = self.rng.beta(self.need, np.maximum(counts - self.need + 1, 1))
+            sat = np.where(full, self._invert(t0_s, t1_s, b * total), np.inf)
+        self.saturation_s.append(np.asarray(sat, dtype=np.float64))
+        return np.minimum(counts, self.need).astype(np.float64)
+
+    def _invert(self, t0_s: float, t1_s: float, target: np.ndarray) -> np.ndarray:
+        """Λ⁻¹ by bisection (Λ is increasing): the time each pixel reaches ``target`` electrons."""
+        lo, hi = np.full(len(target), t0_s), np.full(len(target), t1_s)
+        for _ in range(60):  # 2^-60 of the window: below the nanosecond tick for any frame
+            mid = 0.5 * (lo + hi)
+            below = self.electrons_until(t0_s, mid) < target
+            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+        return 0.5 * (lo + hi)

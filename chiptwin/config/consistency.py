@@ -14,8 +14,8 @@ BASES = frozenset("ACGT")
 
 #: Fidelity levels that exist. Others are refused at validation time, not half-run.
 BUILT_LEVELS: dict[str, tuple[str, ...]] = {
-    "kinetics": ("closed_form",),
-    "photons": ("expected", "binned"),
+    "kinetics": ("closed_form", "cascade"),
+    "photons": ("expected", "binned", "events"),
     "optics": ("na2", "psf"),
     "dsp": ("float", "fixed"),
 }
@@ -38,6 +38,9 @@ def _fidelity(s: Scenario) -> None:
             key = "chip.dsp.mode" if stage == "dsp" and not s.run.fidelity.dsp else (
                 f"run.fidelity.{stage}")
             _fail(s, key, level, f"level not built yet; built: {', '.join(BUILT_LEVELS[stage])}")
+    if s.run.fidelity.kinetics == "cascade" and s.assay.kind != "pyrosequencing":
+        _fail(s, "run.fidelity.kinetics", "cascade",
+              f"the cascade models pyrosequencing; assay kind {s.assay.kind!r} has closed_form")
     if s.run.fidelity.dsp and s.run.fidelity.dsp != s.chip.dsp.mode != "float":
         _fail(s, "run.fidelity.dsp", s.run.fidelity.dsp,
               f"contradicts chip.dsp.mode = {s.chip.dsp.mode!r}; set one of them")

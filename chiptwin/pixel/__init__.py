@@ -39,6 +39,7 @@ from chiptwin.pixel.sensor import (
     fixed_pattern_maps,
     ktc_noise_e,
     mean_electrons,
+    read_out,
     sample_frame,
 )
 
@@ -53,6 +54,7 @@ __all__ = [
     "ktc_noise_e",
     "lsb_V",
     "mean_electrons",
+    "read_out",
     "sample_frame",
     "sensor_chain",
     "to_volts",

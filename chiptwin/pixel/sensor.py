@@ -238,10 +238,28 @@ def sample_frame(
     Poisson counts, signal kTC (if ``ktc_e > 0``), reset kTC (if ``ktc_e > 0`` and not
     ``true_cds``), reset read noise, signal read noise.
     """
-    fw, ktc, read, m = _check_readout(full_well_e, ktc_e, read_noise_e, n_samples)
+    fw, _, _, _ = _check_readout(full_well_e, ktc_e, read_noise_e, n_samples)
     lam = mean_electrons(photons, qe, gain_map, dark_e)
     collected = np.minimum(rng.poisson(lam), fw).astype(np.float64)
-    shape = lam.shape
+    return read_out(rng, collected, ktc_e, read_noise_e, n_samples, true_cds)
+
+
+def read_out(
+    rng: np.random.Generator,
+    collected_e: ArrayLike,
+    ktc_e: float,
+    read_noise_e: float,
+    n_samples: int,
+    true_cds: bool,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Reset and signal samples of a frame whose collected charge is already known. Unit: e⁻.
+
+    The second half of :func:`sample_frame`, for charge counted another way (the ``events``
+    photon level counts arrivals). Arguments and draw order as there, without the Poisson draw.
+    """
+    _, ktc, read, m = _check_readout(1.0, ktc_e, read_noise_e, n_samples)
+    collected = np.asarray(collected_e, dtype=np.float64)
+    shape = collected.shape
     k_signal = ktc * rng.standard_normal(shape) if ktc > 0 else np.zeros(shape)
     k_reset = k_signal if true_cds or ktc == 0 else ktc * rng.standard_normal(shape)
     reset_e = k_reset + read * rng.standard_normal((m, *shape))

@@ -1,0 +1,63 @@
+"""The kinetics and photon levels selected from a scenario: cascade and events in the chip."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from chiptwin.cli import main
+from chiptwin.config import ScenarioError, load_scenario
+from chiptwin.pixel import dark_current_e_per_s
+from chiptwin.run import run
+from tests.conftest import SCENARIOS
+
+
+def test_cascade_level_calls_the_template_and_reports_its_level(small_toml):
+    result = run(small_toml, ["run.fidelity.kinetics=cascade"])
+    assert result.summary["fidelity"]["kinetics"] == "cascade"
+    assert result.summary["called_sequence"] == result.summary["true_sequence"]
+
+
+def test_cascade_light_matches_the_closed_form_with_the_measured_yield(small_toml):
+    """The cascade calibrated to the same measured yield emits the same photons per site (1 %)."""
+    closed = run(small_toml).arrays["site_photons"].sum(axis=1)
+    cascade = run(small_toml, ["run.fidelity.kinetics=cascade"]).arrays["site_photons"].sum(axis=1)
+    np.testing.assert_allclose(cascade, closed, rtol=0.01)
+
+
+def test_cascade_is_pyrosequencing_only(capsys):
+    assert main(["validate", str(SCENARIOS / "atp_glow.toml"),
+                 "--set", "run.fidelity.kinetics=cascade"]) == 2
+    assert "run.fidelity.kinetics" in capsys.readouterr().err
+
+
+def test_events_level_agrees_with_expected(small_toml):
+    """Counting exact arrivals gives the flow values of the expected level within 5 σ."""
+    events = run(small_toml, ["run.fidelity.photons=events"]).summary
+    expected = run(small_toml, ["run.fidelity.photons=expected"]).summary
+    assert events["fidelity"]["photons"] == "events"
+    for fe, fx in zip(events["flows"], expected["flows"], strict=True):
+        assert abs(fe["signal_e"] - fx["signal_e"]) < 5 * fx["noise_e"]
+    assert events["sites"][0]["saturated_frames"] == 0
+    assert events["sites"][0]["first_saturation_s"] is None
+
+
+def test_events_level_times_the_well_filling():
+    """Constant light r e⁻/s fills a well of W e⁻ after the W-th arrival: W/r on average with
+    standard deviation √W/r (Gamma(W, r)); tolerance 5 σ. Counts per window cannot say this."""
+    flux = 1.0e4  # photons/s/µm², 3e7 e⁻/s on a 100 µm diode at QE 0.3
+    s = load_scenario(SCENARIOS / "snr10_requirement.toml",
+                      [f"assay.photons_per_s_per_um2={flux}", "run.fidelity.photons=events",
+                       ])
+    site = run(s).summary["sites"][0]
+    px = s.chip.pixel
+    rate = flux * 1e4 * px.qe + dark_current_e_per_s(px.dark_current_nA_per_cm2, 1e4, 25.0)
+    window_start = s.assay.start_s + s.chip.timing.t_reset_s + 2 * s.chip.adc.conversion_time_s
+    assert site["saturated_frames"] == 1
+    t_fill = site["first_saturation_s"] - window_start
+    assert t_fill == pytest.approx(px.full_well_e / rate, abs=5 * np.sqrt(px.full_well_e) / rate)
+
+
+def test_unbuilt_level_is_refused(small_toml):
+    with pytest.raises(ScenarioError, match="run.fidelity.optics"):
+        load_scenario(small_toml, ["run.fidelity.optics=raytrace"])
