@@ -183,9 +183,14 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
                                           adc.offset_error_lsb, adc.gain_error)
         return Frame(codes=codes, mean=mean_e * to_lsb, var=var_e * to_lsb**2 + quant_var)
 
-    chain = chain_for(s.chip) if s.dsp_level == "fixed" else None
-    dsp = Pipeline(s.dsp_level, chain, report_error=s.chip.dsp.report_error,
-                   keep_codes=keep_codes)
+    chain = chain_for(s.chip) if s.dsp_level in ("fixed", "rtl") else None
+    if s.dsp_level == "rtl":
+        from chiptwin.rtl import RtlPipeline
+
+        dsp = RtlPipeline(chain, report_error=s.chip.dsp.report_error, keep_codes=keep_codes)
+    else:
+        dsp = Pipeline(s.dsp_level, chain, report_error=s.chip.dsp.report_error,
+                       keep_codes=keep_codes)
     pipeline = _TimedPipeline(dsp, timer)
     t0 = time.perf_counter()
     chip = simulate_chip(sch, read_frame, pipeline, rec, progress)

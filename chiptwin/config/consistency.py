@@ -17,7 +17,7 @@ BUILT_LEVELS: dict[str, tuple[str, ...]] = {
     "kinetics": ("closed_form", "cascade"),
     "photons": ("expected", "binned", "events"),
     "optics": ("na2", "psf"),
-    "dsp": ("float", "fixed"),
+    "dsp": ("float", "fixed", "rtl"),
 }
 
 
@@ -41,6 +41,12 @@ def _fidelity(s: Scenario) -> None:
     if s.run.fidelity.kinetics == "cascade" and s.assay.kind != "pyrosequencing":
         _fail(s, "run.fidelity.kinetics", "cascade",
               f"the cascade models pyrosequencing; assay kind {s.assay.kind!r} has closed_form")
+    if s.dsp_level == "rtl":
+        from chiptwin import rtl
+
+        if "verilator" in rtl.missing():
+            key = "run.fidelity.dsp" if s.run.fidelity.dsp else "chip.dsp.mode"
+            _fail(s, key, "rtl", f"simulates the DSP's Verilog with Verilator: {rtl.INSTALL_HINT}")
     if s.run.fidelity.dsp and s.run.fidelity.dsp != s.chip.dsp.mode != "float":
         _fail(s, "run.fidelity.dsp", s.run.fidelity.dsp,
               f"contradicts chip.dsp.mode = {s.chip.dsp.mode!r}; set one of them")

@@ -10,8 +10,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-import chiptwin.run
-from chiptwin.config import ScenarioError
 from chiptwin.dsp.chain import chain_configs
 from chiptwin.dsp.fixed import Fmt
 from chiptwin.dsp.pipeline import Frame, Pipeline
@@ -99,32 +97,10 @@ def _comparable(summary: dict) -> dict:
     return out
 
 
-def test_small_scenario_through_the_rtl_equals_fixed(small_toml, monkeypatch) -> None:
-    """The chip model's DSP jobs go to :class:`RtlPipeline` (a stand-in for the ``rtl`` mode
-    wiring of ``chiptwin.run``): every array and summary figure equals the fixed level's."""
-    fixed = run(small_toml, ["chip.dsp.mode=fixed"])
-
-    def to_rtl(level, chain=None, report_error=False, keep_codes=False):
-        assert level == "fixed"
-        return RtlPipeline(chain, report_error, keep_codes)
-
-    monkeypatch.setattr(chiptwin.run, "Pipeline", to_rtl)
-    rtl = run(small_toml, ["chip.dsp.mode=fixed"])
-    assert fixed.arrays.keys() == rtl.arrays.keys()
-    for key in fixed.arrays:
-        np.testing.assert_array_equal(fixed.arrays[key], rtl.arrays[key], err_msg=key)
-    assert rtl.summary["dsp"]["level"] == "rtl"
-    assert _comparable(fixed.summary) == _comparable(rtl.summary)
-
-
 def test_mode_rtl_equals_mode_fixed(small_toml) -> None:
-    """``[chip.dsp] mode = "rtl"`` once ``chiptwin.run`` routes it (see rtl_ref/README.md)."""
-    try:
-        rtl = run(small_toml, ["chip.dsp.mode=rtl"])
-    except (ScenarioError, ValueError) as err:
-        if "not built" in str(err):
-            pytest.skip(f"chiptwin.run does not route the rtl level yet: {err}")
-        raise
+    """``[chip.dsp] mode = "rtl"``: the chip model's DSP jobs simulated from the Verilog give
+    every array and summary figure of the fixed level, bit for bit."""
+    rtl = run(small_toml, ["chip.dsp.mode=rtl"])
     fixed = run(small_toml, ["chip.dsp.mode=fixed"])
     for key in fixed.arrays:
         np.testing.assert_array_equal(fixed.arrays[key], rtl.arrays[key], err_msg=key)
