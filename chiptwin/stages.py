@@ -39,9 +39,9 @@ def flow_program(s: Scenario) -> tuple[list[str], np.ndarray]:
 def light_source(s: Scenario) -> LightSource:
     """The light of every site. Unit: photons/s.
 
-    ``closed_form``: Salama et al. 2004, eqs. 12, 13, 19. ``cascade`` (pyrosequencing only): the
-    multi-enzyme ODE (:mod:`chiptwin.kinetics.cascade`) in the paper's limit set by k_t and k_a;
-    with a measured photon yield, the luciferase amount is fitted to give that yield.
+    ``closed_form``: Salama et al. 2004, eqs. 5–8, 12, 13, 19. ``cascade`` (pyrosequencing
+    only): the multi-enzyme ODE (:mod:`chiptwin.kinetics.cascade`) in the paper's limit set by
+    k_t and k_a; with a measured photon yield, the luciferase amount is fitted to give it.
 
     The ``flux`` kind gives light at the sensor plane instead: photons/s on the diode under each
     site (flux × diode area), with :func:`coupling` passing it straight through.
@@ -62,6 +62,14 @@ def light_source(s: Scenario) -> LightSource:
     if a.kind == "luciferase_label":
         return kinetics.luciferase_label(np.full(n, a.luciferase_amol * AMOL), a.start_s,
                                          turnover_per_s=a.turnover_per_s, alpha=a.quantum_yield)
+    if a.kind == "substrate":
+        return kinetics.substrate_detection(
+            np.full(n, a.substrate_amol * AMOL), a.start_s, k_f_per_M_per_s=a.k_f_per_M_per_s,
+            enzyme_M=a.enzyme_M, alpha=a.quantum_yield)
+    if a.kind == "catalyst":
+        return kinetics.catalyst_detection(
+            np.full(n, a.enzyme_amol * AMOL), a.start_s, k_f_per_M_per_s=a.k_f_per_M_per_s,
+            substrate_max_M=a.substrate_max_M, alpha=a.quantum_yield)
     area = s.chip.pixel.diode_w_um * s.chip.pixel.diode_h_um
     return PulseTrain(site=np.arange(n), onset_s=np.full(n, a.start_s),
                       amplitude_per_s=np.full(n, a.photons_per_s_per_um2 * area),

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from chiptwin.config.fields import param
 from chiptwin.dsp.fmt import OVERFLOW_MODES, ROUNDING_MODES
 
-ASSAY_KINDS = ("pyrosequencing", "atp", "luciferase_label", "flux")
+ASSAY_KINDS = ("pyrosequencing", "atp", "luciferase_label", "substrate", "catalyst", "flux")
 
 #: Keys of ``[assay]`` that each kind uses; any other non-common key is an error for that kind.
 ASSAY_KIND_KEYS: dict[str, frozenset[str]] = {
@@ -22,6 +22,9 @@ ASSAY_KIND_KEYS: dict[str, frozenset[str]] = {
     ),
     "atp": frozenset({"atp_fmol", "turnover_per_s", "quantum_yield"}),
     "luciferase_label": frozenset({"luciferase_amol", "turnover_per_s", "quantum_yield"}),
+    "substrate": frozenset({"substrate_amol", "k_f_per_M_per_s", "enzyme_M", "quantum_yield"}),
+    "catalyst": frozenset({"enzyme_amol", "k_f_per_M_per_s", "substrate_max_M",
+                           "quantum_yield"}),
     "flux": frozenset({"photons_per_s_per_um2"}),
 }
 ASSAY_COMMON_KEYS = frozenset({"kind", "start_s"})
@@ -62,6 +65,12 @@ class Assay:
     atp_fmol: float = param(1.0, lo=0.0, lo_open=True, doc="fmol ATP per site, V·[ATP0]")
     luciferase_amol: float = param(1.0, lo=0.0, lo_open=True, doc="amol luciferase per site")
     turnover_per_s: float = param(0.1, lo=0.0, lo_open=True, doc="1/s; 0.1 glow … 1 flash")
+    # substrate detection (eqs. 5–6) and catalyst detection (eqs. 7–8), mass action (eq. 2)
+    substrate_amol: float = param(1.0, lo=0.0, lo_open=True, doc="amol substrate per site V·[S0]")
+    enzyme_amol: float = param(1.0, lo=0.0, lo_open=True, doc="amol enzyme per site V·[E]")
+    k_f_per_M_per_s: float = param(1.0e5, lo=0.0, lo_open=True, doc="1/(M·s), forward rate")
+    enzyme_M: float = param(1.0e-6, lo=0.0, lo_open=True, doc="M; enzyme in excess")
+    substrate_max_M: float = param(1.0e-6, lo=0.0, lo_open=True, doc="M; substrate in excess")
     # flux: light given directly at the sensor plane
     photons_per_s_per_um2: float = param(0.5, lo=0.0, doc="photons/s/µm² on the diode")
 
