@@ -6,6 +6,7 @@ Exit codes: 0 success, 2 bad input (one clear line, no traceback), 1 internal er
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 import traceback
@@ -52,11 +53,11 @@ def bundled_scenarios() -> dict[str, Path]:
     An installed package carries them as ``chiptwin.scenarios`` (``scenarios/`` mapped in
     pyproject.toml); a source tree has them in ``scenarios/`` beside the package.
     """
-    try:
-        folder = Path(str(resources.files("chiptwin.scenarios")))
+    try:  # a namespace package: iterate its entries, str() of the folder is not a path
+        files = [Path(str(f)) for f in resources.files("chiptwin.scenarios").iterdir()]
     except ModuleNotFoundError:
-        folder = Path(__file__).resolve().parents[1] / "scenarios"
-    return {f.stem: f for f in sorted(folder.glob("*.toml"))}
+        files = list((Path(__file__).resolve().parents[1] / "scenarios").iterdir())
+    return {f.stem: f for f in sorted(files) if f.suffix == ".toml"}
 
 
 def resolve_scenario(name: str) -> Path:
@@ -77,6 +78,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except SystemExit as exc:  # --help and --version
         return int(exc.code or 0)
+    except BrokenPipeError:  # e.g. `chiptwin list | head`: the reader left, nothing is wrong
+        sys.stdout = open(os.devnull, "w")  # noqa: SIM115 (Python's documented remedy)
+        return 0
     except KeyboardInterrupt:
         print("chiptwin: interrupted", file=sys.stderr)
         return 130
