@@ -140,7 +140,8 @@ def prepare(s: Scenario, timer: StageTimer | None = None) -> Scene:
     with timer("optics"):
         coupling = stages.coupling(s)
         pix_photons = coupling @ site_photons
-    sensor = stages.sensor_model(s, stage_rng(s.scenario.seed, "fixed_pattern"))
+    chip_seed = s.chip.fixed_pattern_seed if s.chip.fixed_pattern_seed >= 0 else s.scenario.seed
+    sensor = stages.sensor_model(s, stage_rng(chip_seed, "fixed_pattern"))
     return Scene(sch, source, site_photons, coupling, pix_photons, sensor)
 
 

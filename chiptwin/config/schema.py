@@ -185,6 +185,9 @@ class Chip:
     rows: int = param(8, kind=int, lo=1, hi=4096)
     cols: int = param(16, kind=int, lo=1, hi=4096)
     pitch_um: float = param(125.0, lo=0.0, lo_open=True, doc="µm (choice: diode + 25 µm)")
+    fixed_pattern_seed: int = param(
+        -1, kind=int, lo=-1, hi=2**63 - 1,
+        doc="seed of this chip's PRNU/DSNU maps; -1 = from scenario.seed (one chip per seed)")
     pixel: Pixel = field(default_factory=Pixel)
     adc: Adc = field(default_factory=Adc)
     memory: Memory = field(default_factory=Memory)
