@@ -19,8 +19,10 @@ from chiptwin.config import ScenarioError, load_scenario
 
 
 class _Parser(argparse.ArgumentParser):
+    argv: Sequence[str] = ()
+
     def error(self, message: str):  # argparse's default exits; we want an exit code
-        raise ScenarioError("chiptwin", "(arguments)", " ".join(sys.argv[1:]), message)
+        raise ScenarioError("chiptwin", "(arguments)", " ".join(self.argv), message)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -71,7 +73,9 @@ def resolve_scenario(name: str) -> Path:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI in-process; returns the exit code."""
     try:
-        args = build_parser().parse_args(argv)
+        parser = build_parser()
+        parser.argv = list(sys.argv[1:] if argv is None else argv)
+        args = parser.parse_args(parser.argv)
         return _dispatch(args)
     except ScenarioError as exc:
         print(f"chiptwin: error: {exc}", file=sys.stderr)
@@ -106,12 +110,13 @@ def _dispatch(args: argparse.Namespace) -> int:
         return 0
     if args.command == "dsp-report":
         return _dsp_report(scenario, args.json)
-    from chiptwin.report import headline, write_outputs
+    from chiptwin.report import check_out_dir, headline, write_outputs
     from chiptwin.run import run
 
+    out = check_out_dir(args.out or Path("out") / scenario.scenario.name)  # before the run
     progress = None if args.quiet else _Progress()
     result = run(scenario, progress=progress)
-    out = write_outputs(result, args.out or Path("out") / scenario.scenario.name)
+    out = write_outputs(result, out)
     if not args.quiet:
         for key, value in headline(result.summary):
             print(f"  {key:28s} {value}")
@@ -126,6 +131,11 @@ def _dsp_report(scenario, json_path: str | None) -> int:
     from chiptwin.dsp.scenario_report import dsp_report
     from chiptwin.run import stage_rng
 
+    if json_path:
+        target = Path(json_path)
+        if target.is_dir() or not target.parent.is_dir():
+            raise ScenarioError("chiptwin", "--json", json_path,
+                                "must be a file path in an existing folder")
     report = dsp_report(scenario, stage_rng(scenario.scenario.seed, "dsp_stress"))
     print(format_error_table(report))
     print(f"all bounds met: {report['all_bounds_ok']}")

@@ -7,6 +7,7 @@ end, so a crashed or refused run never leaves a half-written folder that looks c
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import tempfile
 from pathlib import Path
@@ -18,10 +19,49 @@ if TYPE_CHECKING:
     from chiptwin.run import Result
 
 
+OUTPUT_MARK = "summary.json"
+"""A folder holding this file is a previous chiptwin output, which a new run may replace."""
+
+
+def check_out_dir(out_dir: str | Path) -> Path:
+    """Where a run may write, checked before it starts; returns the resolved folder.
+
+    A run replaces its output folder whole, so the folder must be new, empty, or a previous
+    chiptwin output (it holds ``summary.json``); never the working folder or one of its parents.
+
+    Raises
+    ------
+    ScenarioError
+        Naming ``--out``, the folder, and what is allowed.
+    """
+    out = Path(out_dir).resolve()
+    cwd = Path.cwd().resolve()
+    if out == cwd or out in cwd.parents:
+        _refuse(out_dir, "must not be the working folder or one of its parents")
+    if out.exists():
+        if not out.is_dir():
+            _refuse(out_dir, "is a file; must be a folder (new, empty, or a previous output)")
+        if any(out.iterdir()) and not (out / OUTPUT_MARK).is_file():
+            _refuse(out_dir, f"holds files but no {OUTPUT_MARK}: it is not a previous chiptwin "
+                             "output, and a run replaces its folder whole")
+    try:  # the folder that will hold it (never the output folder itself, written last)
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        _refuse(out_dir, f"cannot be created ({exc.strerror})")
+    if not os.access(out.parent, os.W_OK | os.X_OK):
+        _refuse(out_dir, f"cannot be created: {out.parent} is not writable")
+    return out
+
+
+def _refuse(out_dir: str | Path, allowed: str) -> None:
+    from chiptwin.config import ScenarioError
+
+    raise ScenarioError("chiptwin", "--out", str(out_dir), allowed)
+
+
 def write_outputs(result: Result, out_dir: str | Path) -> Path:
-    """Write every output of ``result`` into ``out_dir`` (replaced whole if it exists)."""
-    out = Path(out_dir)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    """Write every output of ``result`` into ``out_dir``, replacing a previous output whole."""
+    out = check_out_dir(out_dir)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:
         (tmp / "summary.json").write_text(json.dumps(result.summary, indent=2) + "\n")

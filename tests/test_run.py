@@ -5,9 +5,10 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from chiptwin.cli import main
-from chiptwin.config import load_scenario
+from chiptwin.config import ScenarioError, load_scenario
 from chiptwin.run import run
 
 TIMING_KEYS = {"wall_time_s", "stage_time_s"}
@@ -91,3 +92,28 @@ def test_one_chip_many_runs(small_toml):
     peak = [r.summary["sites"][0]["peak_frame_signal_e"] for r in (a, b, c)]
     assert peak[0] == peak[1] != peak[2]
     assert a.summary["sites"][0]["signal_e"] != b.summary["sites"][0]["signal_e"]
+
+
+@pytest.mark.parametrize("name", ["..", ".", "a/b", "../x", "x y"])
+def test_scenario_name_must_be_a_folder_name(small_toml, name):
+    with pytest.raises(ScenarioError, match="scenario.name"):
+        load_scenario(small_toml, [f'scenario.name="{name}"'])
+
+
+def test_output_folder_is_never_a_stranger(small_toml, tmp_path, monkeypatch, capsys):
+    """A run replaces its output folder whole: the working folder, its parents, a file and a
+    folder of someone else's files are refused before the run (exit 2), and nothing changes."""
+    keep = tmp_path / "keep"
+    keep.mkdir()
+    (keep / "notes.txt").write_text("mine")
+    monkeypatch.chdir(keep)
+    for out in (".", "..", str(keep), str(keep / "notes.txt")):
+        assert main(["run", str(small_toml), "--out", out, "--quiet"]) == 2
+        assert "--out" in capsys.readouterr().err
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "data.csv").write_text("1,2")
+    assert main(["run", str(small_toml), "--out", str(other), "--quiet"]) == 2
+    assert (keep / "notes.txt").read_text() == "mine" and (other / "data.csv").exists()
+    assert main(["run", str(small_toml), "--out", str(tmp_path / "fresh"), "--quiet"]) == 0
+    assert main(["run", str(small_toml), "--out", str(tmp_path / "fresh"), "--quiet"]) == 0

@@ -5,6 +5,8 @@ Each rule raises :class:`ScenarioError` naming the key a user would change.
 
 from __future__ import annotations
 
+import re
+
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
 from chiptwin.constants import Q_E
@@ -23,12 +25,20 @@ BUILT_LEVELS: dict[str, tuple[str, ...]] = {
 
 def check_consistency(s: Scenario) -> None:
     """Run every cross-field rule on a built scenario."""
-    for rule in (_fidelity, _assay, _sites, _optics, _timing, _adc_range, _memory, _duration):
+    for rule in (_name, _fidelity, _assay, _sites, _optics, _timing, _adc_range, _memory,
+                 _duration):
         rule(s)
 
 
 def _fail(s: Scenario, key: str, value: object, allowed: str) -> None:
     raise ScenarioError(s.source, key, value, allowed)
+
+
+def _name(s: Scenario) -> None:
+    """The name becomes the default output folder ``out/<name>``: one plain path component."""
+    name = s.scenario.name
+    if not re.fullmatch(r"[A-Za-z0-9_.-]+", name) or name in (".", ".."):
+        _fail(s, "scenario.name", name, "must be letters, digits, '_', '-', '.' (a folder name)")
 
 
 def _fidelity(s: Scenario) -> None:
