@@ -154,7 +154,9 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
     adc = s.chip.adc
     t_int = s.chip.timing.t_int_s
     to_lsb = (1.0 + adc.gain_error) / sensor.e_per_lsb
-    quant_var = 2.0 / (12.0 * sensor.cms_samples)  # two means of M samples, each LSB²/12
+    # Rounding of the two M-sample means (reset and signal levels); read noise dithers it.
+    read_lsb = sensor.read_noise_e / sensor.e_per_lsb * (1.0 + adc.gain_error)
+    quant_var = 2.0 * pixel.quantization_var_of_mean(sensor.cms_samples, read_lsb)
     args = (sensor.qe, sensor.gain_map, sensor.dark_e_per_s * t_int, sensor.full_well_e,
             sensor.ktc_e, sensor.read_noise_e, sensor.cms_samples, sensor.true_cds)
 

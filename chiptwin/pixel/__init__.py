@@ -29,7 +29,13 @@ The DSP, not this package, forms ``mean(signal) − mean(reset)``. Photon-statis
 
 from __future__ import annotations
 
-from chiptwin.pixel.adc import adc_convert, adc_expected, lsb_V, to_volts
+from chiptwin.pixel.adc import (
+    adc_convert,
+    adc_expected,
+    lsb_V,
+    quantization_var_of_mean,
+    to_volts,
+)
 from chiptwin.pixel.chain import sensor_chain
 from chiptwin.pixel.sensor import (
     clipped_poisson_moments,
@@ -53,6 +59,7 @@ __all__ = [
     "fixed_pattern_maps",
     "ktc_noise_e",
     "lsb_V",
+    "quantization_var_of_mean",
     "mean_electrons",
     "read_out",
     "sample_frame",

@@ -253,3 +253,27 @@ def adc_expected(
     sd = np.sqrt(var_a.ravel()) * scale
     mean, var = _moments(mu, sd, 2.0**n - 1.0)
     return mean.reshape(mean_a.shape), var.reshape(mean_a.shape)
+
+
+def quantization_var_of_mean(n_samples: int, noise_lsb: float) -> float:
+    """Variance of the rounding error of the mean of ``n_samples`` codes of one level. Unit: LSB².
+
+    The samples share the level and differ by white noise of ``noise_lsb`` rms, so their rounding
+    errors are correlated: averaging M samples divides LSB²/12 by M only when the noise is
+    ≳ 0.5 LSB. With the level uniform modulo one LSB, the sawtooth's Fourier series gives the
+    covariance of two errors, ``c = Σ_k exp(−4π²k²σ²) / (2π²k²)`` (``c = 1/12`` at σ = 0), and
+
+        var = 1/(12 M) + (1 − 1/M) · c.
+
+    Parameters
+    ----------
+    n_samples : int
+        M ≥ 1 samples averaged.
+    noise_lsb : float
+        Per-sample white noise (read noise), ≥ 0. Unit: LSB rms.
+    """
+    m = check_int("n_samples", n_samples, 1)
+    sigma = check_scalar("noise_lsb", noise_lsb, lo=0.0)
+    k = np.arange(1, 4001, dtype=np.float64)  # the tail beyond 4000 terms is < 1e-5 of 1/12
+    cov = float(np.sum(np.exp(-4.0 * np.pi**2 * k**2 * sigma**2) / (2.0 * np.pi**2 * k**2)))
+    return 1.0 / (12.0 * m) + (1.0 - 1.0 / m) * cov
