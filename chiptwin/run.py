@@ -61,7 +61,11 @@ class StageTimer:
 
 @dataclass
 class ChainOutput:
-    """The chip model's outputs at the pixels, in electrons."""
+    """The chip model's outputs at the pixels, in electrons.
+
+    Electrons are read back from codes at the ADC's nominal gain, as the chip itself would: an
+    ADC gain error (``chip.adc.gain_error``) shows up as a scale error of every figure.
+    """
 
     chip: ChipRun
     block_t_s: np.ndarray
@@ -71,6 +75,8 @@ class ChainOutput:
     dark_var_e2: np.ndarray
     dsp: Pipeline
     saturation_s: np.ndarray | None = None  # events level: (n_frames, n_sites), inf = not full
+    adc_clipped_samples: int = 0
+    full_well_pixel_frames: int = 0
 
 
 def run(
@@ -165,15 +171,19 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
         events = stages.EventPixels(scene.source, scene.coupling, site_pixel_indices(s), sensor,
                                     stage_rng(s.scenario.seed, "events"))
 
+    clipped = [0]  # ADC samples at code 0 or full scale
+    full = [0]  # pixel-frames whose expected charge reaches the full well
+
     def read_frame(k: int) -> Frame:
         photons = pix_photons[:, k]
         with timer("pixel"):
             mean_e, var_e = pixel.expected_frame(photons, *args)
+            lam = pixel.mean_electrons(photons, sensor.qe, sensor.gain_map, args[2])
+            full[0] += int(np.count_nonzero(lam >= sensor.full_well_e))
             samples = None
             if photons_level == "binned":
                 samples = pixel.sample_frame(rng, photons, *args)
             elif events is not None:
-                lam = pixel.mean_electrons(photons, sensor.qe, sensor.gain_map, args[2])
                 collected = np.minimum(rng.poisson(lam), sensor.full_well_e)
                 collected[events.pixels] = events.collect(*sch.window_s(k))
                 samples = pixel.read_out(rng, collected, *args[4:])
@@ -184,6 +194,7 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
                                        sensor.pedestal_V)
                 codes = pixel.adc_convert(volts, adc.bits, adc.v_min_V, adc.v_max_V,
                                           adc.offset_error_lsb, adc.gain_error)
+                clipped[0] += int(np.count_nonzero((codes == 0) | (codes == 2**adc.bits - 1)))
         return Frame(codes=codes, mean=mean_e * to_lsb, var=var_e * to_lsb**2 + quant_var)
 
     chain = chain_for(s.chip) if s.dsp_level in ("fixed", "rtl") else None
@@ -200,6 +211,7 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
     inner = sum(timer.seconds[k] for k in ("pixel", "adc", "dsp"))
     timer.seconds["memory"] += time.perf_counter() - t0 - inner  # the event engine itself
     out = _chain_output(chip, sch, pipeline.inner, sensor.e_per_lsb)
+    out.adc_clipped_samples, out.full_well_pixel_frames = clipped[0], full[0]
     if events is not None:
         out.saturation_s = np.array(events.saturation_s).reshape(-1, len(events.pixels))
     return out
@@ -277,6 +289,12 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     arrays["memory_t_s"] = np.array([t for t, _ in out.chip.occupancy]) / 1e9
     arrays["memory_frames"] = np.array([o for _, o in out.chip.occupancy])
     summary["chip"] = chip_figures(s, sch, out.chip)
+    summary["chip"]["adc_clipped_samples"] = out.adc_clipped_samples
+    summary["chip"]["full_well_pixel_frames"] = out.full_well_pixel_frames
+    if out.adc_clipped_samples:
+        summary["chip"]["flags"].append("adc_clipped")
+    if out.full_well_pixel_frames:
+        summary["chip"]["flags"].append("full_well")
     summary["dsp"] = dsp_figures(out.dsp)
     return summary, arrays
 

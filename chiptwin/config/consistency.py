@@ -125,11 +125,20 @@ def _adc_range(s: Scenario) -> None:
     if not adc.v_min_V <= px.pedestal_V < adc.v_max_V:
         _fail(s, "chip.pixel.pedestal_V", px.pedestal_V,
               f"must lie in the ADC range [{adc.v_min_V:g}, {adc.v_max_V:g}) V")
-    full_well_V = px.pedestal_V + px.full_well_e * Q_E / (px.capacitance_fF * 1e-15)
-    if full_well_V > adc.v_max_V and not adc.range_below_full_well_ok:
+    # Codes the ADC gives at zero charge and at the full well, with its gain and offset errors.
+    lsb = (adc.v_max_V - adc.v_min_V) / 2**adc.bits
+    zero_code = (px.pedestal_V - adc.v_min_V) / lsb * (1 + adc.gain_error) + adc.offset_error_lsb
+    full_well_V = px.full_well_e * Q_E / (px.capacitance_fF * 1e-15)
+    full_code = zero_code + full_well_V / lsb * (1 + adc.gain_error)
+    if zero_code < 0:
+        _fail(s, "chip.adc.offset_error_lsb", adc.offset_error_lsb,
+              f"puts the pedestal at code {zero_code:.1f}, below code 0: dark pixels would clip")
+    if full_code > 2**adc.bits - 1 and not adc.range_below_full_well_ok:
         _fail(s, "chip.adc.v_max_V", adc.v_max_V,
-              f"is below the full-well voltage {full_well_V:.4g} V (pedestal + full_well_e·q/C); "
-              "raise it, or set chip.adc.range_below_full_well_ok = true if clipping is intended")
+              f"is below the full well: pedestal + full_well_e·q/C = "
+              f"{px.pedestal_V + full_well_V:.4g} V reaches code {full_code:.0f} > "
+              f"{2**adc.bits - 1} (gain and offset errors included); raise it, or set "
+              "chip.adc.range_below_full_well_ok = true if clipping is intended")
     if s.chip.memory.word_bits < adc.bits:
         _fail(s, "chip.memory.word_bits", s.chip.memory.word_bits,
               f"must hold an ADC code: ≥ chip.adc.bits = {adc.bits}")

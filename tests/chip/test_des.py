@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from chiptwin.chip import Recorder, Schedule, simulate_chip
-from chiptwin.config import load_scenario
+from chiptwin.config import ScenarioError, load_scenario
 from chiptwin.run import run
 
 
@@ -94,3 +94,24 @@ def test_trace_writes_a_vcd(small_toml, tmp_path):
 def test_conversion_time_is_two_to_the_bits_clock_cycles(small_toml, bits):
     s, sch = _schedule(small_toml, f"chip.adc.bits={bits}", "chip.memory.word_bits=16")
     assert sch.t_conv_ns == round(2**bits / s.chip.adc.clock_hz * 1e9)
+
+
+def test_saturation_and_adc_clipping_are_flagged(small_toml):
+    """Light beyond the full well is flagged; an ADC range meant to clip is counted."""
+    bright = run(load_scenario(small_toml, ["assay.photons_per_incorporation=0"])).summary
+    assert "full_well" in bright["chip"]["flags"] and bright["chip"]["full_well_pixel_frames"] > 0
+    clip = run(load_scenario(small_toml, ["assay.photons_per_incorporation=0",
+                                          "chip.adc.v_max_V=0.5",
+                                          "chip.adc.range_below_full_well_ok=true"])).summary
+    assert "adc_clipped" in clip["chip"]["flags"] and clip["chip"]["adc_clipped_samples"] > 0
+    dim = run(load_scenario(small_toml)).summary["chip"]
+    assert dim["adc_clipped_samples"] == dim["full_well_pixel_frames"] == 0
+
+
+@pytest.mark.parametrize(("override", "key"), [
+    ("chip.adc.offset_error_lsb=-1000", "chip.adc.offset_error_lsb"),
+    ("chip.adc.gain_error=0.3", "chip.adc.v_max_V"),
+])
+def test_adc_errors_that_would_clip_are_refused(small_toml, override, key):
+    with pytest.raises(ScenarioError, match=key):
+        load_scenario(small_toml, [override])
