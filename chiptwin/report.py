@@ -148,6 +148,9 @@ def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> st
 def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
     """The compact table printed by the CLI and put at the top of report.md."""
     rows = [("wall time", f"{summary['wall_time_s']:.2f} s"), ("seed", str(summary["seed"]))]
+    if not summary["results_valid"]:
+        rows.append(("RESULTS NOT VALID", "the chip flagged " + ", ".join(
+            summary["chip"]["flags"]) + ": figures below are what the chip would report"))
     for site in summary["sites"][:8]:
         rows.append((
             f"site {site['id']} {site['pixel']}",
@@ -162,7 +165,7 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
         rows.append(("true sequence", summary["true_sequence"]))
         rows.append(("called sequence", summary["called_sequence"] + ("  ✓" if ok else "  ✗")))
     if "required_flux_photons_per_s_per_um2" in summary:
-        rows.append(("flux for SNR 10 (power)",
+        rows.append((f"flux for SNR {summary['required_flux_snr_power']:g} (power)",
                      f"{summary['required_flux_photons_per_s_per_um2']:.4g} photons/s/µm²"))
     chip = summary["chip"]
     rows.append(("chip", f"{chip['frames']} frames, {chip['adc_bits']}-bit ADC, memory peak "

@@ -22,7 +22,7 @@ import numpy as np
 from chiptwin import __version__, pixel, stages
 from chiptwin.chip import ChipRun, Recorder, Schedule, simulate_chip
 from chiptwin.config import Scenario, load_scenario
-from chiptwin.config.consistency import scenario_warnings
+from chiptwin.config.consistency import check_consistency, scenario_warnings
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, snr, window_sums
 from chiptwin.dsp.pipeline import Frame, Pipeline, chain_for
 from chiptwin.kinetics import pyro
@@ -102,6 +102,7 @@ def run(
             scenario, scenario=replace(scenario.scenario, seed=seed))
     else:
         s = load_scenario(scenario, overrides, seed)
+    check_consistency(s)  # a Scenario built or replaced in Python meets the file's rules too
     timer = StageTimer()
     scene = prepare(s, timer)
     rec = Recorder()
@@ -112,15 +113,27 @@ def run(
     summary.update(
         scenario=s.scenario.name, description=s.scenario.description, seed=s.scenario.seed,
         chiptwin_version=__version__,
-        fidelity={"kinetics": s.run.fidelity.kinetics, "photons": s.run.fidelity.photons,
-                  "optics": "na2" if s.optics.coupling == "lens" else s.run.fidelity.optics,
-                  "dsp": s.dsp_level},
+        fidelity=fidelity_used(s),
         stage_time_s={k: round(v, 6) for k, v in timer.seconds.items()},
         wall_time_s=round(time.perf_counter() - t_start, 6),
         snr_definition=SNR_DEFINITION,
         warnings=scenario_warnings(s),
     )
     return Result(summary=summary, arrays=arrays, trace=rec, scenario=s)
+
+
+#: Chip flags under which per-site figures and calls are not to be trusted.
+INVALIDATING_FLAGS = frozenset({"memory_overflow", "dsp_cannot_keep_up", "adc_clipped"})
+
+
+def fidelity_used(s: Scenario) -> dict[str, str]:
+    """The level each stage ran at; ``none`` where the scene bypassed it (light given at the
+    sensor plane skips kinetics and optics)."""
+    flux = s.assay.kind == "flux"
+    return {"kinetics": "none" if flux else s.run.fidelity.kinetics,
+            "photons": s.run.fidelity.photons,
+            "optics": "none" if flux else s.run.fidelity.optics,
+            "dsp": s.dsp_level}
 
 
 @dataclass(frozen=True)
@@ -281,7 +294,8 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
                 "saturated_frames"] else None
     summary["sites"] = sites
     if s.assay.kind == "flux":
-        summary["required_flux_photons_per_s_per_um2"] = _required_flux(s, scene, out, idx)
+        summary["required_flux_photons_per_s_per_um2"] = _required_flux(s, idx)
+        summary["required_flux_snr_power"] = s.run.detection_snr_power
     peak = int(np.argmax(out.value_e[:, idx].sum(axis=1))) if len(out.value_e) else 0
     arrays["peak_frame_e"] = (out.value_e[peak] if len(out.value_e) else
                               np.zeros(s.chip.n_pixels)).reshape(s.chip.rows, s.chip.cols)
@@ -296,6 +310,9 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     if out.full_well_pixel_frames:
         summary["chip"]["flags"].append("full_well")
     summary["dsp"] = dsp_figures(out.dsp)
+    # A dropped frame makes the DSP average non-consecutive frames, as the chip would; the
+    # figures are still reported, but not as trustworthy.
+    summary["results_valid"] = not set(summary["chip"]["flags"]) & INVALIDATING_FLAGS
     return summary, arrays
 
 
@@ -358,23 +375,27 @@ def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
                       peak_window=np.isin(flow_of_block, ones))
 
 
-def _required_flux(s: Scenario, scene: Scene, out: ChainOutput, idx: np.ndarray) -> float:
+def _required_flux(s: Scenario, idx: np.ndarray) -> float:
     """Flux at the diode that gives power SNR = ``run.detection_snr_power`` (site 0).
 
-    The estimator's variance is linear in the signal, var = var0 + k·S; var0 comes from the
-    same chain run in darkness at the ``expected`` level, k from this run's expected values.
+    The chain is linear in the flux below the full well: signal S = a·flux and variance
+    var0 + k·S. Both come from the ``expected`` level run at a reference flux of 1 photon/s/µm²
+    and in darkness, so the answer does not depend on the scenario's own flux.
     """
-    darkness = replace(scene, pix_photons=np.zeros_like(scene.pix_photons))
-    dark = simulate(s, darkness, "expected", np.random.default_rng(0), Recorder())
+    unit = replace(s, assay=replace(s.assay, photons_per_s_per_um2=1.0))
     edges = np.array([s.assay.start_s, s.run.duration_s])
     n = s.chip.dsp.average_frames
-    sig, var = window_sums(out.block_t_s, out.mean_e, out.var_e2, out.dark_var_e2, n, edges)
-    _, var0 = window_sums(dark.block_t_s, dark.mean_e, dark.var_e2, dark.dark_var_e2, n, edges)
-    signal, v, v0 = sig[0, idx[0]], var[0, idx[0]], var0[0, idx[0]]
-    if signal <= 0:
-        return float("inf")
-    needed = required_signal_e(s.run.detection_snr_power, v0, (v - v0) / signal)
-    return s.assay.photons_per_s_per_um2 * needed / signal
+    figures = []
+    for flux in (1.0, 0.0):
+        scene = prepare(unit)
+        scene = replace(scene, pix_photons=scene.pix_photons * flux)
+        out = simulate(unit, scene, "expected", stage_rng(s.scenario.seed, "required_flux"),
+                       Recorder())  # the expected level draws nothing
+        sig, var = window_sums(out.block_t_s, out.mean_e, out.var_e2, out.dark_var_e2, n, edges)
+        figures.append((sig[0, idx[0]], var[0, idx[0]]))
+    (a, v1), (_, v0) = figures
+    needed = required_signal_e(s.run.detection_snr_power, v0, (v1 - v0) / a)
+    return float(needed / a)
 
 
 def chip_figures(s: Scenario, sch: Schedule, chip: ChipRun) -> dict[str, Any]:

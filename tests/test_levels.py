@@ -61,3 +61,36 @@ def test_events_level_times_the_well_filling():
 def test_unbuilt_level_is_refused(small_toml):
     with pytest.raises(ScenarioError, match="run.fidelity.optics"):
         load_scenario(small_toml, ["run.fidelity.optics=raytrace"])
+
+
+def test_fixed_dsp_needs_codes(small_toml):
+    """The expected level carries no ADC codes: a fixed or RTL DSP would compute nothing."""
+    with pytest.raises(ScenarioError, match="run.fidelity.photons"):
+        load_scenario(small_toml, ["run.fidelity.photons=expected", "chip.dsp.mode=fixed"])
+
+
+def test_run_checks_a_scenario_built_in_python(small_toml):
+    """A Scenario changed with dataclasses.replace meets the same rules as a file."""
+    from dataclasses import replace
+
+    s = load_scenario(small_toml)
+    bad = replace(s, chip=replace(s.chip, timing=replace(s.chip.timing, t_int_s=5.0)))
+    with pytest.raises(ScenarioError, match="frame_period_s"):
+        run(bad)
+
+
+def test_required_flux_does_not_depend_on_the_scenes_flux():
+    """The flux for power SNR 10 is a property of the chip: the same from 0.5 or 0 photons/s/µm²
+    (1e-9: the chain is linear below the full well)."""
+    path = SCENARIOS / "snr10_requirement.toml"
+    lit = run(path).summary["required_flux_photons_per_s_per_um2"]
+    dark = run(path, ["assay.photons_per_s_per_um2=0"]).summary
+    assert dark["required_flux_photons_per_s_per_um2"] == pytest.approx(lit, rel=1e-9)
+    assert dark["fidelity"]["kinetics"] == dark["fidelity"]["optics"] == "none"
+    assert not dark["sites"][0]["detected"]
+
+
+def test_dropped_frames_make_results_invalid(small_toml):
+    s = run(small_toml, ["chip.dsp.clock_hz=20", "chip.memory.capacity_bits=16000"]).summary
+    assert s["results_valid"] is False
+    assert run(small_toml).summary["results_valid"] is True

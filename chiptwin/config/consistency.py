@@ -9,7 +9,7 @@ import re
 
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
-from chiptwin.constants import Q_E
+from chiptwin.constants import Q_E, s_to_ticks
 from chiptwin.dsp.fixed import accumulator_bits_needed
 
 BASES = frozenset("ACGT")
@@ -51,6 +51,9 @@ def _fidelity(s: Scenario) -> None:
     if s.run.fidelity.kinetics == "cascade" and s.assay.kind != "pyrosequencing":
         _fail(s, "run.fidelity.kinetics", "cascade",
               f"the cascade models pyrosequencing; assay kind {s.assay.kind!r} has closed_form")
+    if s.dsp_level in ("fixed", "rtl") and s.run.fidelity.photons == "expected":
+        _fail(s, "run.fidelity.photons", "expected",
+              f"carries no ADC codes for the {s.dsp_level} DSP to compute on; use binned")
     if s.dsp_level == "rtl":
         from chiptwin import rtl
 
@@ -109,13 +112,15 @@ def _optics(s: Scenario) -> None:
 
 
 def _timing(s: Scenario) -> None:
-    t = s.chip.timing
-    busy = s.chip.readout_time_s + t.t_int_s
-    if busy > t.frame_period_s:
-        _fail(s, "chip.timing.frame_period_s", t.frame_period_s,
+    """Checked in the chip model's own nanosecond ticks, as it will run."""
+    from chiptwin.chip.des import Schedule
+
+    sch = Schedule.from_chip(s.chip, s.run.duration_s)
+    if sch.busy_ns > sch.frame_period_ns:
+        _fail(s, "chip.timing.frame_period_s", s.chip.timing.frame_period_s,
               f"must be ≥ reset + integration + {s.chip.samples_per_frame} conversions "
-              f"= {busy:.6g} s (t_int_s {t.t_int_s:g} s, one conversion "
-              f"{s.chip.adc.conversion_time_s:.3g} s)")
+              f"= {sch.busy_ns} ns (t_int_s {s.chip.timing.t_int_s:g} s, one conversion "
+              f"{sch.t_conv_ns} ns)")
 
 
 def _adc_range(s: Scenario) -> None:
@@ -158,18 +163,28 @@ def _memory(s: Scenario) -> None:
 
 
 def _duration(s: Scenario) -> None:
+    """Dark frames first; then blocks of N frames that start with the light and, for
+    pyrosequencing, never straddle two flows (checked in integer ticks, as the chip runs)."""
     c, a = s.chip, s.assay
-    dark_s = c.dsp.n_dark_frames * c.timing.frame_period_s
-    if a.start_s < dark_s:
+    period = s_to_ticks(c.timing.frame_period_s)
+    dark_ticks = c.dsp.n_dark_frames * period
+    block = c.dsp.average_frames * period
+    if s_to_ticks(a.start_s) < dark_ticks:
         _fail(s, "assay.start_s", a.start_s,
-              f"must be ≥ {dark_s:g} s: the {c.dsp.n_dark_frames} dark frames come before light")
+              f"must be ≥ {dark_ticks / 1e9:g} s: the {c.dsp.n_dark_frames} dark frames come "
+              "before light")
+    if (s_to_ticks(a.start_s) - dark_ticks) % block:
+        _fail(s, "assay.start_s", a.start_s,
+              f"must be the end of the dark frames ({dark_ticks / 1e9:g} s) plus a whole number "
+              f"of {c.dsp.average_frames}-frame blocks ({block / 1e9:g} s each), so that no "
+              "averaged block mixes dark and light")
     need = a.start_s + c.dsp.average_frames * c.timing.frame_period_s
     if a.kind == "pyrosequencing":
         need = a.start_s + a.n_flows * a.flow_period_s
-        if (a.flow_period_s / c.timing.frame_period_s) % c.dsp.average_frames:
-            _fail(s, "chip.dsp.average_frames", c.dsp.average_frames,
-                  "must divide the frames per flow (flow_period_s / frame_period_s) so that "
-                  "averaged frames do not straddle flows")
+        if s_to_ticks(a.flow_period_s) % block:
+            _fail(s, "assay.flow_period_s", a.flow_period_s,
+                  f"must be a whole number of {c.dsp.average_frames}-frame blocks "
+                  f"({block / 1e9:g} s each), so that averaged frames do not straddle flows")
     if s.run.duration_s < need:
         _fail(s, "run.duration_s", s.run.duration_s, f"must be ≥ {need:g} s for this assay")
 

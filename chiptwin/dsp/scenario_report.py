@@ -80,13 +80,19 @@ def scenario_cases(s: Scenario) -> dict[str, Case]:
 
 
 def _kinetics_case(s: Scenario, diff: np.ndarray, fmt) -> Case:
-    """The matched filter over each flow: frames of one flow weighted by exp(−k_a t)."""
-    a, period = s.assay, s.chip.timing.frame_period_s
+    """The matched filter over each flow: frames of one flow weighted by exp(−k_a t).
+
+    ``diff`` starts with the frame after the K dark frames; the first flow starts at
+    ``assay.start_s``, a whole number of frames later (validated).
+    """
+    a, c = s.assay, s.chip
+    period = c.timing.frame_period_s
     per_flow = int(round(a.flow_period_s / period))
-    n_flows = len(diff) // per_flow
+    first = int(round(a.start_s / period)) - c.dsp.n_dark_frames
+    n_flows = min(a.n_flows, (len(diff) - first) // per_flow)
     t_s = tuple(float(j * period) for j in range(per_flow))
     cfg = KineticsConfig(t_s=t_s, k_per_s=a.k_a_per_s, in_fmt=fmt)
-    frames = diff[: n_flows * per_flow].reshape(n_flows, per_flow, -1)
+    frames = diff[first: first + n_flows * per_flow].reshape(n_flows, per_flow, -1)
     return Case("kinetics", cfg, {"frames": frames})
 
 
