@@ -23,9 +23,9 @@ from chiptwin import __version__, pixel, stages
 from chiptwin.chip import ChipRun, Recorder, Schedule, simulate_chip
 from chiptwin.config import Scenario, load_scenario
 from chiptwin.config.consistency import check_consistency, scenario_warnings
-from chiptwin.detection import SNR_DEFINITION, required_signal_e, snr, window_sums
+from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
 from chiptwin.dsp.pipeline import Frame, Pipeline, chain_for
-from chiptwin.kinetics import pyro
+from chiptwin.results import detect
 
 
 def stage_rng(seed: int, stage: str) -> np.random.Generator:
@@ -110,6 +110,10 @@ def run(
                    timer, progress)
     with timer("detection"):
         summary, arrays = detect(s, scene, out)
+        if s.assay.kind == "flux":
+            idx = stages.site_pixel_indices(s)
+            summary["required_flux_photons_per_s_per_um2"] = _required_flux(s, idx)
+            summary["required_flux_snr_power"] = s.run.detection_snr_power
     summary.update(
         scenario=s.scenario.name, description=s.scenario.description, seed=s.scenario.seed,
         chiptwin_version=__version__,
@@ -120,10 +124,6 @@ def run(
         warnings=scenario_warnings(s),
     )
     return Result(summary=summary, arrays=arrays, trace=rec, scenario=s)
-
-
-#: Chip flags under which per-site figures and calls are not to be trusted.
-INVALIDATING_FLAGS = frozenset({"memory_overflow", "dsp_cannot_keep_up", "adc_clipped"})
 
 
 def fidelity_used(s: Scenario) -> dict[str, str]:
@@ -181,8 +181,8 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
 
     events = None
     if photons_level == "events":
-        events = stages.EventPixels(scene.source, scene.coupling, site_pixel_indices(s), sensor,
-                                    stage_rng(s.scenario.seed, "events"))
+        events = stages.EventPixels(scene.source, scene.coupling, stages.site_pixel_indices(s),
+                                    sensor, stage_rng(s.scenario.seed, "events"))
 
     clipped = [0]  # ADC samples at code 0 or full scale
     full = [0]  # pixel-frames whose expected charge reaches the full well
@@ -230,12 +230,6 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
     return out
 
 
-def site_pixel_indices(s: Scenario) -> np.ndarray:
-    """Index (row-major) of the pixel under each site."""
-    rc = stages.site_pixels(s)
-    return rc[:, 0] * s.chip.cols + rc[:, 1]
-
-
 class _TimedPipeline:
     """Wraps the DSP so its wall time is booked to the ``dsp`` stage."""
 
@@ -266,115 +260,6 @@ def _chain_output(chip: ChipRun, sch: Schedule, dsp: Pipeline, e_per_lsb: float)
     )
 
 
-def detect(s: Scenario, scene: Scene, out: ChainOutput
-           ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Per-site estimates, decisions, base calls, and the chip's figures."""
-    sch = scene.sch
-    rc = stages.site_pixels(s)
-    idx = site_pixel_indices(s)
-    n_avg = s.chip.dsp.average_frames
-    arrays: dict[str, np.ndarray] = {
-        "block_t_s": out.block_t_s, "site_pixel_index": idx,
-        "site_signal_e": out.value_e[:, idx].T / 1.0,
-        "pixel_photons": scene.pix_photons, "site_photons": scene.site_photons,
-    }
-    summary: dict[str, Any] = {}
-    if s.assay.kind == "pyrosequencing":
-        sites = _pyro_sites(s, out, idx, summary, arrays)
-    else:
-        edges = np.array([s.assay.start_s, s.run.duration_s])
-        sums, var = window_sums(out.block_t_s, out.value_e, out.var_e2, out.dark_var_e2, n_avg,
-                                edges)
-        sites = _site_rows(s, rc, sums[0, idx], np.sqrt(var[0, idx]), out, idx)
-    if out.saturation_s is not None:
-        for i, site in enumerate(sites):
-            t = out.saturation_s[:, i]
-            site["saturated_frames"] = int(np.isfinite(t).sum())
-            site["first_saturation_s"] = float(t[np.isfinite(t)][0]) if site[
-                "saturated_frames"] else None
-    summary["sites"] = sites
-    if s.assay.kind == "flux":
-        summary["required_flux_photons_per_s_per_um2"] = _required_flux(s, idx)
-        summary["required_flux_snr_power"] = s.run.detection_snr_power
-    peak = int(np.argmax(out.value_e[:, idx].sum(axis=1))) if len(out.value_e) else 0
-    arrays["peak_frame_e"] = (out.value_e[peak] if len(out.value_e) else
-                              np.zeros(s.chip.n_pixels)).reshape(s.chip.rows, s.chip.cols)
-    arrays["peak_frame_t_s"] = np.array(out.block_t_s[peak] if len(out.block_t_s) else 0.0)
-    arrays["memory_t_s"] = np.array([t for t, _ in out.chip.occupancy]) / 1e9
-    arrays["memory_frames"] = np.array([o for _, o in out.chip.occupancy])
-    summary["chip"] = chip_figures(s, sch, out.chip)
-    summary["chip"]["adc_clipped_samples"] = out.adc_clipped_samples
-    summary["chip"]["full_well_pixel_frames"] = out.full_well_pixel_frames
-    if out.adc_clipped_samples:
-        summary["chip"]["flags"].append("adc_clipped")
-    if out.full_well_pixel_frames:
-        summary["chip"]["flags"].append("full_well")
-    summary["dsp"] = dsp_figures(out.dsp)
-    # A dropped frame makes the DSP average non-consecutive frames, as the chip would; the
-    # figures are still reported, but not as trustworthy.
-    summary["results_valid"] = not set(summary["chip"]["flags"]) & INVALIDATING_FLAGS
-    return summary, arrays
-
-
-def _site_rows(s: Scenario, rc: np.ndarray, signal: np.ndarray, noise: np.ndarray,
-               out: ChainOutput, idx: np.ndarray, peak_window: np.ndarray | None = None,
-               ) -> list[dict]:
-    """One summary row per site.
-
-    ``peak_frame_*`` is the brightest single DSP output among those in ``peak_window`` (all by
-    default; for pyrosequencing the key's single-base flows, so it is a 1-mer peak). Its signal
-    is the expected value, so its SNR is a property of the chip, not of one noisy frame.
-    """
-    p, a = snr(signal, noise)
-    values = out.mean_e[:, idx] if len(out.mean_e) else np.zeros((1, len(idx)))
-    frame_snr = (values**2 / (out.var_e2[:, idx] + out.dark_var_e2[idx]) if len(out.value_e)
-                 else np.zeros_like(values))
-    masked = np.where(peak_window[:, None], values, -np.inf) if peak_window is not None else values
-    peak = np.argmax(masked, axis=0)
-    return [
-        {"id": i, "pixel": [int(r), int(c)], "signal_e": float(signal[i]),
-         "noise_e": float(noise[i]), "snr_power": float(p[i]), "snr_amplitude": float(a[i]),
-         "detected": bool(p[i] >= s.run.detection_snr_power),
-         "peak_frame_signal_e": float(values[peak[i], i]),
-         "peak_frame_snr_power": float(frame_snr[peak[i], i])}
-        for i, (r, c) in enumerate(rc)
-    ]
-
-
-def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
-    """Flow values per site, normalised by the key's 1-mers, and the called sequences."""
-    a = s.assay
-    nucs, n_inc = stages.flow_program(s)
-    edges = a.start_s + a.flow_period_s * np.arange(a.n_flows + 1)
-    sums, var = window_sums(out.block_t_s, out.value_e, out.var_e2, out.dark_var_e2,
-                            s.chip.dsp.average_frames, edges)
-    key_n = pyro.key_flow_counts(a.key, a.flow_order)
-    ones = np.flatnonzero(key_n == 1)
-    flow_values, calls, signal, noise = [], [], [], []
-    for j in idx:
-        ref = float(np.mean(sums[ones, j]))
-        norm = pyro.normalise_flows(sums[:, j], key_n) if ref > 0 else np.zeros(a.n_flows)
-        flow_values.append(norm)
-        calls.append(pyro.call_sequence(nucs, norm))
-        signal.append(ref)
-        noise.append(float(np.sqrt(np.mean(var[ones, j]))))
-    true_seq = "".join(nuc * int(n) for nuc, n in zip(nucs, n_inc, strict=True))
-    summary["true_sequence"] = true_seq
-    summary["called_sequence"] = calls[0][0]
-    summary["called_sequences"] = [c for c, _ in calls]
-    summary["flows"] = [
-        {"nucleotide": nucs[f], "value": float(flow_values[0][f]),
-         "called_n": int(calls[0][1][f]), "true_n": int(n_inc[f]),
-         "signal_e": float(sums[f, idx[0]]), "noise_e": float(np.sqrt(var[f, idx[0]]))}
-        for f in range(a.n_flows)
-    ]
-    arrays["flow_values"] = np.array(flow_values)
-    arrays["flow_sums_e"] = sums[:, idx].T
-    flow_of_block = np.searchsorted(edges, out.block_t_s, side="right") - 1
-    return _site_rows(s, stages.site_pixels(s), np.array(signal), np.array(noise), out, idx,
-                      peak_window=np.isin(flow_of_block, ones))
-
-
 def _required_flux(s: Scenario, idx: np.ndarray) -> float:
     """Flux at the diode that gives power SNR = ``run.detection_snr_power`` (site 0).
 
@@ -396,43 +281,3 @@ def _required_flux(s: Scenario, idx: np.ndarray) -> float:
     (a, v1), (_, v0) = figures
     needed = required_signal_e(s.run.detection_snr_power, v0, (v1 - v0) / a)
     return float(needed / a)
-
-
-def chip_figures(s: Scenario, sch: Schedule, chip: ChipRun) -> dict[str, Any]:
-    """Frames, memory, DSP load and the flags, for ``summary['chip']``."""
-    active_ns = max(sch.n_frames * sch.frame_period_ns, 1)
-    slow = sch.dsp_ns_per_frame > sch.frame_period_ns
-    lag_ns = max(0, chip.end_ns - chip.last_write_ns)
-    flags = []
-    if chip.dropped:
-        flags.append("memory_overflow")
-    if slow or chip.unprocessed_frames >= sch.block_frames:
-        flags.append("dsp_cannot_keep_up")
-    return {
-        "frames": sch.n_frames,
-        "adc_bits": s.chip.adc.bits,
-        "memory_bits": s.chip.memory.capacity_bits,
-        "memory_capacity_frames": sch.memory_frames,
-        "memory_peak_frames": chip.memory_peak_frames,
-        "dsp_utilization": chip.dsp_busy_ns / active_ns,
-        "dsp_lag_s": lag_ns / 1e9,
-        "overflows": len(chip.dropped),
-        "unprocessed_frames": chip.unprocessed_frames,
-        "frame_period_s": sch.frame_period_ns / 1e9,
-        "conversion_time_s": sch.t_conv_ns / 1e9,
-        "dsp_time_per_frame_s": sch.dsp_ns_per_frame / 1e9,
-        "flags": flags,
-    }
-
-
-def dsp_figures(dsp: Pipeline) -> dict[str, Any]:
-    """The DSP level, its registers, overflow counts and (when asked) fixed-vs-float error."""
-    out: dict[str, Any] = {"level": dsp.level}
-    if dsp.chain is not None:
-        out["registers"] = {step: {reg: fmt.q for reg, fmt in regs.items()}
-                            for step, regs in dsp.chain.registers().items()}
-    out["overflow"] = dsp.overflow
-    out["overflow_total"] = {k: sum(c[k] for c in dsp.overflow.values()) for k in ("sat", "wrap")}
-    if dsp.error is not None:
-        out["error_vs_float"] = dsp.error.summary()
-    return out

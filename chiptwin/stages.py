@@ -30,6 +30,12 @@ def site_pixels(s: Scenario) -> np.ndarray:
     return np.array(at, dtype=np.int64).reshape(-1, 2)
 
 
+def site_pixel_indices(s: Scenario) -> np.ndarray:
+    """Index (row-major) of the pixel under each site."""
+    rc = site_pixels(s)
+    return rc[:, 0] * s.chip.cols + rc[:, 1]
+
+
 def flow_program(s: Scenario) -> tuple[list[str], np.ndarray]:
     """Nucleotide and incorporations of each flow (pyrosequencing only)."""
     a = s.assay
