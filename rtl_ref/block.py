@@ -120,8 +120,13 @@ class Block(ABC):
         """The RTL counters (by port name) as the model's overflow dict."""
 
     def result(self, d0: np.ndarray, counters: Mapping[str, int], inputs: Inputs) -> FixedResult:
-        """The RTL's output words ``out_d0`` as the model routine's :class:`FixedResult`."""
-        raise NotImplementedError(f"{type(self).__name__} has no single model routine")
+        """The RTL's output words ``out_d0`` as the model routine's :class:`FixedResult`.
+
+        Blocks that mirror one model routine override this; a block that chains several
+        routines (:class:`~rtl_ref.chain_block.ChainBlock`) has no single result to give.
+        """
+        raise TypeError(f"{type(self).__name__} chains several model routines: it has no "
+                        "single FixedResult (use rtl_ref.pipeline for the chain)")
 
     @abstractmethod
     def sources(self, inputs: Inputs, k: int) -> str:
