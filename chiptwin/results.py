@@ -25,6 +25,14 @@ if TYPE_CHECKING:
 INVALIDATING_FLAGS = frozenset({"memory_overflow", "dsp_cannot_keep_up", "adc_clipped"})
 
 
+def light_decay_per_s(s: Scenario) -> float | None:
+    """k of the matched filter, or None for the plain sum (``run.light_estimator``)."""
+    if s.run.light_estimator != "matched":
+        return None
+    return {"pyrosequencing": s.assay.k_a_per_s, "atp": s.assay.turnover_per_s}.get(
+        s.assay.kind, 0.0)  # constant light: the matched filter is the sum
+
+
 def detect(s: Scenario, scene: Scene, out: ChainOutput
            ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Per-site estimates, decisions, base calls, and the chip's figures."""
@@ -43,7 +51,7 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     else:
         edges = np.array([s.assay.start_s, s.run.duration_s])
         sums, var = window_sums(out.block_t_s, out.value_e, out.var_e2, out.dark_var_e2, n_avg,
-                                edges)
+                                edges, light_decay_per_s(s))
         sites = _site_rows(s, rc, sums[0, idx], np.sqrt(var[0, idx]), out, idx)
     if out.saturation_s is not None:
         for i, site in enumerate(sites):
@@ -69,6 +77,7 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     # A dropped frame makes the DSP average non-consecutive frames, as the chip would; the
     # figures are still reported, but not as trustworthy.
     summary["results_valid"] = not set(summary["chip"]["flags"]) & INVALIDATING_FLAGS
+    summary["light_estimator"] = s.run.light_estimator
     return summary, arrays
 
 
@@ -103,7 +112,7 @@ def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
     nucs, n_inc = stages.flow_program(s)
     edges = a.start_s + a.flow_period_s * np.arange(a.n_flows + 1)
     sums, var = window_sums(out.block_t_s, out.value_e, out.var_e2, out.dark_var_e2,
-                            s.chip.dsp.average_frames, edges)
+                            s.chip.dsp.average_frames, edges, light_decay_per_s(s))
     key_n = pyro.key_flow_counts(a.key, a.flow_order)
     ones = np.flatnonzero(key_n == 1)
     flow_values, calls, signal, noise = [], [], [], []

@@ -25,7 +25,7 @@ from chiptwin.config import Scenario, load_scenario
 from chiptwin.config.consistency import check_consistency, scenario_warnings
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
 from chiptwin.dsp.pipeline import Frame, Pipeline, chain_for
-from chiptwin.results import detect
+from chiptwin.results import detect, light_decay_per_s
 
 
 def stage_rng(seed: int, stage: str) -> np.random.Generator:
@@ -276,7 +276,8 @@ def _required_flux(s: Scenario, idx: np.ndarray) -> float:
         scene = replace(scene, pix_photons=scene.pix_photons * flux)
         out = simulate(unit, scene, "expected", stage_rng(s.scenario.seed, "required_flux"),
                        Recorder())  # the expected level draws nothing
-        sig, var = window_sums(out.block_t_s, out.mean_e, out.var_e2, out.dark_var_e2, n, edges)
+        sig, var = window_sums(out.block_t_s, out.mean_e, out.var_e2, out.dark_var_e2, n, edges,
+                               light_decay_per_s(s))
         figures.append((sig[0, idx[0]], var[0, idx[0]]))
     (a, v1), (_, v0) = figures
     needed = required_signal_e(s.run.detection_snr_power, v0, (v1 - v0) / a)

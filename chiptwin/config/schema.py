@@ -233,6 +233,10 @@ class Run:
     detection_snr_power: float = param(
         10.0, lo=0.0, lo_open=True, doc="power SNR (eq. 22) above which a site is detected"
     )
+    light_estimator: str = param(
+        "sum", choices=("sum", "matched"),
+        doc="window total: plain sum of DSP outputs, or the matched filter for the assay's "
+            "exponential decay (pyrosequencing k_a, ATP turnover)")
     fidelity: Fidelity = field(default_factory=Fidelity)
 
 

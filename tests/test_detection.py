@@ -1,0 +1,34 @@
+"""Window totals and their variances, checked against Monte Carlo draws of the model they assume."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from chiptwin.detection import snr, window_sums
+
+
+@pytest.mark.parametrize("decay", [None, 0.05])
+def test_window_sum_variance_matches_monte_carlo(decay):
+    """Outputs y_j = A·exp(−k t_j) + e_j − d (e_j independent, d the common dark-reference error):
+    the estimator's mean and variance over 40 000 draws agree with the returned ones (1 % / 3 %)."""
+    rng = np.random.default_rng(1)
+    t = np.arange(2.0, 60.0, 4.0)  # block mid-times of one 60 s flow, N = 4
+    shape = np.exp(-0.05 * t)
+    var_e, var_d, n, draws = 2.0e4, 5.0e3, 4, 40_000
+    y = (1.0e5 * shape[None, :] + rng.normal(0, np.sqrt(var_e), (draws, t.size))
+         - rng.normal(0, np.sqrt(var_d), (draws, 1)))
+    est = np.empty(draws)
+    for i in range(draws):
+        est[i] = window_sums(t, y[i][:, None], np.zeros((t.size, 1)), np.zeros(1), n,
+                             np.array([0.0, 60.0]), decay)[0][0, 0]
+    _, var = window_sums(t, np.zeros((t.size, 1)), np.full((t.size, 1), var_e),
+                         np.array([var_d]), n, np.array([0.0, 60.0]), decay)
+    assert est.mean() == pytest.approx(n * 1.0e5 * shape.sum(), rel=0.01)
+    assert est.var() == pytest.approx(var[0, 0], rel=0.03)
+
+
+def test_snr_power_is_the_square_of_amplitude():
+    power, amplitude = snr(np.array([300.0, 300.0]), np.array([100.0, 0.0]))
+    assert power[0] == pytest.approx(9.0) and amplitude[0] == pytest.approx(3.0)
+    assert np.isinf(amplitude[1])
