@@ -14,36 +14,15 @@ from chiptwin.constants import N_A
 from chiptwin.run import run
 from tests.conftest import SMALL
 
-BASE = SMALL.split("[assay]")[0] + """
-[assay]
-kind = "{kind}"
-start_s = 4.0
-{extra}
 
-[sites]
-at_pixels = [[1, 1]]
-
-[chip]
-rows = 4
-cols = 6
-
-[chip.dsp]
-n_dark_frames = 4
-cms_samples = 2
-average_frames = 4
-
-[run]
-duration_s = 44.0
-
-[run.fidelity]
-photons = "expected"
-"""
-
-
-def _run(tmp_path, kind: str, extra: str):
+def _run(tmp_path, kind: str, assay: str):
+    """The small scenario with its ``[assay]`` section replaced, one site, 40 s of light."""
+    head, tail = SMALL.split("[assay]")
+    tail = tail[tail.index("[sites]"):]
     path = tmp_path / f"{kind}.toml"
-    path.write_text(BASE.format(kind=kind, extra=extra))
-    return run(path)
+    path.write_text(f'{head}[assay]\nkind = "{kind}"\nstart_s = 4.0\n{assay}\n\n{tail}')
+    return run(path, ["sites.at_pixels=[[1, 1]]", "run.duration_s=44",
+                      "run.fidelity.photons=expected"])
 
 
 def _windows(result):
