@@ -27,8 +27,8 @@ module ct_background #(
     output reg  [OUT_W-1:0] out_y,
     output reg              out_sat,
     output reg              out_wrap,
-    output reg  [CNT_W-1:0] cnt_out_sat,
-    output reg  [CNT_W-1:0] cnt_out_wrap
+    output wire [CNT_W-1:0] cnt_out_sat,
+    output wire [CNT_W-1:0] cnt_out_wrap
 );
     localparam integer F = (IN_F > DK_F) ? IN_F : DK_F;
     localparam integer XW = IN_W + (IN_S != 0 ? 0 : 1);      // as signed
@@ -70,16 +70,15 @@ module ct_background #(
     wire in_fire = in_valid & in_ready;
     wire out_fire = out_valid & out_ready;
 
+    ct_events #(.W(1), .CNT_W(CNT_W)) u_ev_out (
+        .clk(clk), .rst(rst), .en(out_fire), .sat(out_sat), .wrap(out_wrap),
+        .cnt_sat(cnt_out_sat), .cnt_wrap(cnt_out_wrap)
+    );
+
     always @(posedge clk) begin
         if (rst) begin
             out_valid <= 1'b0;
-            cnt_out_sat <= {CNT_W{1'b0}};
-            cnt_out_wrap <= {CNT_W{1'b0}};
         end else begin
-            if (out_fire) begin
-                cnt_out_sat <= cnt_out_sat + {{(CNT_W - 1){1'b0}}, out_sat};
-                cnt_out_wrap <= cnt_out_wrap + {{(CNT_W - 1){1'b0}}, out_wrap};
-            end
             if (in_ready) out_valid <= in_valid;
         end
     end

@@ -38,12 +38,12 @@ module ct_cms #(
     output wire [OUT_W-1:0] out_y,
     output wire             out_sat,
     output wire             out_wrap,
-    output reg  [CNT_W-1:0] cnt_reset_sat,
-    output reg  [CNT_W-1:0] cnt_reset_wrap,
-    output reg  [CNT_W-1:0] cnt_signal_sat,
-    output reg  [CNT_W-1:0] cnt_signal_wrap,
-    output reg  [CNT_W-1:0] cnt_out_sat,
-    output reg  [CNT_W-1:0] cnt_out_wrap
+    output wire [CNT_W-1:0] cnt_reset_sat,
+    output wire [CNT_W-1:0] cnt_reset_wrap,
+    output wire [CNT_W-1:0] cnt_signal_sat,
+    output wire [CNT_W-1:0] cnt_signal_wrap,
+    output wire [CNT_W-1:0] cnt_out_sat,
+    output wire [CNT_W-1:0] cnt_out_wrap
 );
 `ifdef CT_MUTANT_ACC
     localparam integer AW = ACC_W - 1;
@@ -92,31 +92,27 @@ module ct_cms #(
         .OUT_W(OUT_W), .OUT_F(OUT_F), .OUT_S(OUT_S), .RMODE(RMODE), .OMODE(OMODE)
     ) u_div (.x(diff_q), .y(out_y), .sat(out_sat), .wrap(out_wrap));
 
+    ct_events #(.W(1), .CNT_W(CNT_W)) u_ev_out (
+        .clk(clk), .rst(rst), .en(out_fire), .sat(out_sat), .wrap(out_wrap),
+        .cnt_sat(cnt_out_sat), .cnt_wrap(cnt_out_wrap)
+    );
+    ct_events #(.W(1), .CNT_W(CNT_W)) u_ev_reset (
+        .clk(clk), .rst(rst), .en(in_fire & is_reset), .sat(acc_sat), .wrap(acc_wrap),
+        .cnt_sat(cnt_reset_sat), .cnt_wrap(cnt_reset_wrap)
+    );
+    ct_events #(.W(1), .CNT_W(CNT_W)) u_ev_signal (
+        .clk(clk), .rst(rst), .en(in_fire & ~is_reset), .sat(acc_sat), .wrap(acc_wrap),
+        .cnt_sat(cnt_signal_sat), .cnt_wrap(cnt_signal_wrap)
+    );
+
     always @(posedge clk) begin
         if (rst) begin
             pix <= {PW{1'b0}};
             r <= {RW{1'b0}};
             out_valid <= 1'b0;
-            cnt_reset_sat <= {CNT_W{1'b0}};
-            cnt_reset_wrap <= {CNT_W{1'b0}};
-            cnt_signal_sat <= {CNT_W{1'b0}};
-            cnt_signal_wrap <= {CNT_W{1'b0}};
-            cnt_out_sat <= {CNT_W{1'b0}};
-            cnt_out_wrap <= {CNT_W{1'b0}};
         end else begin
-            if (out_fire) begin
-                out_valid <= 1'b0;
-                cnt_out_sat <= cnt_out_sat + {{(CNT_W - 1){1'b0}}, out_sat};
-                cnt_out_wrap <= cnt_out_wrap + {{(CNT_W - 1){1'b0}}, out_wrap};
-            end
+            if (out_fire) out_valid <= 1'b0;
             if (in_fire) begin
-                if (is_reset) begin
-                    cnt_reset_sat <= cnt_reset_sat + {{(CNT_W - 1){1'b0}}, acc_sat};
-                    cnt_reset_wrap <= cnt_reset_wrap + {{(CNT_W - 1){1'b0}}, acc_wrap};
-                end else begin
-                    cnt_signal_sat <= cnt_signal_sat + {{(CNT_W - 1){1'b0}}, acc_sat};
-                    cnt_signal_wrap <= cnt_signal_wrap + {{(CNT_W - 1){1'b0}}, acc_wrap};
-                end
                 if (emit) out_valid <= 1'b1;
                 if (pix == LAST_PIX) begin
                     pix <= {PW{1'b0}};

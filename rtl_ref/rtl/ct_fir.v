@@ -42,10 +42,10 @@ module ct_fir #(
     output wire [OUT_W-1:0] out_y,
     output wire             out_sat,
     output wire             out_wrap,
-    output reg  [CNT_W-1:0] cnt_acc_sat,
-    output reg  [CNT_W-1:0] cnt_acc_wrap,
-    output reg  [CNT_W-1:0] cnt_out_sat,
-    output reg  [CNT_W-1:0] cnt_out_wrap
+    output wire [CNT_W-1:0] cnt_acc_sat,
+    output wire [CNT_W-1:0] cnt_acc_wrap,
+    output wire [CNT_W-1:0] cnt_out_sat,
+    output wire [CNT_W-1:0] cnt_out_wrap
 );
 `ifdef CT_MUTANT_ACC
     localparam integer AW = ACC_W - 1;
@@ -110,14 +110,6 @@ module ct_fir #(
     endgenerate
     wire [AW-1:0] acc_new = g_tap[TAPS-1].acc_out;
 
-    function [CNT_W-1:0] popcount(input [TAPS-1:0] v);
-        integer i;
-        begin
-            popcount = {CNT_W{1'b0}};
-            for (i = 0; i < TAPS; i = i + 1) popcount = popcount + {{(CNT_W - 1){1'b0}}, v[i]};
-        end
-    endfunction
-
     assign in_ready = ~out_valid | out_ready;
     assign in_fire = in_valid & in_ready;
     wire out_fire = out_valid & out_ready;
@@ -129,24 +121,23 @@ module ct_fir #(
         .IW(AW + 1), .SH(IN_F + COEF_F - OUT_F), .RMODE(RMODE), .OW(OUT_W), .OSIGNED(OUT_S), .OMODE(OMODE)
     ) u_out (.x(acc_s), .y(out_y), .sat(out_sat), .wrap(out_wrap));
 
+    ct_events #(.W(1), .CNT_W(CNT_W)) u_ev_out (
+        .clk(clk), .rst(rst), .en(out_fire), .sat(out_sat), .wrap(out_wrap),
+        .cnt_sat(cnt_out_sat), .cnt_wrap(cnt_out_wrap)
+    );
+    ct_events #(.W(TAPS), .CNT_W(CNT_W)) u_ev_acc (
+        .clk(clk), .rst(rst), .en(in_fire), .sat(add_sat), .wrap(add_wrap),
+        .cnt_sat(cnt_acc_sat), .cnt_wrap(cnt_acc_wrap)
+    );
+
     always @(posedge clk) begin
         if (rst) begin
             pix <= {PW{1'b0}};
             t <= {TW{1'b0}};
             out_valid <= 1'b0;
-            cnt_acc_sat <= {CNT_W{1'b0}};
-            cnt_acc_wrap <= {CNT_W{1'b0}};
-            cnt_out_sat <= {CNT_W{1'b0}};
-            cnt_out_wrap <= {CNT_W{1'b0}};
         end else begin
-            if (out_fire) begin
-                cnt_out_sat <= cnt_out_sat + {{(CNT_W - 1){1'b0}}, out_sat};
-                cnt_out_wrap <= cnt_out_wrap + {{(CNT_W - 1){1'b0}}, out_wrap};
-            end
             if (in_ready) out_valid <= in_valid;
             if (in_fire) begin
-                cnt_acc_sat <= cnt_acc_sat + popcount(add_sat);
-                cnt_acc_wrap <= cnt_acc_wrap + popcount(add_wrap);
                 if (pix == LAST_PIX) begin
                     pix <= {PW{1'b0}};
                     if (t != LAST_T) t <= t + {{(TW - 1){1'b0}}, 1'b1};

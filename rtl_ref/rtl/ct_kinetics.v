@@ -43,10 +43,10 @@ module ct_kinetics #(
     output wire [OUT_W-1:0] out_y,
     output wire             out_sat,
     output wire             out_wrap,
-    output reg  [CNT_W-1:0] cnt_acc_sat,
-    output reg  [CNT_W-1:0] cnt_acc_wrap,
-    output reg  [CNT_W-1:0] cnt_out_sat,
-    output reg  [CNT_W-1:0] cnt_out_wrap
+    output wire [CNT_W-1:0] cnt_acc_sat,
+    output wire [CNT_W-1:0] cnt_acc_wrap,
+    output wire [CNT_W-1:0] cnt_out_sat,
+    output wire [CNT_W-1:0] cnt_out_wrap
 );
 `ifdef CT_MUTANT_ACC
     localparam integer AW = ACC_W - 1;
@@ -108,24 +108,23 @@ module ct_kinetics #(
         .OW(OUT_W), .OSIGNED(OUT_S), .OMODE(OMODE)
     ) u_out (.x(scaled), .y(out_y), .sat(out_sat), .wrap(out_wrap));
 
+    ct_events #(.W(1), .CNT_W(CNT_W)) u_ev_out (
+        .clk(clk), .rst(rst), .en(out_fire), .sat(out_sat), .wrap(out_wrap),
+        .cnt_sat(cnt_out_sat), .cnt_wrap(cnt_out_wrap)
+    );
+    ct_events #(.W(1), .CNT_W(CNT_W)) u_ev_acc (
+        .clk(clk), .rst(rst), .en(in_fire), .sat(acc_sat), .wrap(acc_wrap),
+        .cnt_sat(cnt_acc_sat), .cnt_wrap(cnt_acc_wrap)
+    );
+
     always @(posedge clk) begin
         if (rst) begin
             pix <= {PW{1'b0}};
             j <= {JW{1'b0}};
             out_valid <= 1'b0;
-            cnt_acc_sat <= {CNT_W{1'b0}};
-            cnt_acc_wrap <= {CNT_W{1'b0}};
-            cnt_out_sat <= {CNT_W{1'b0}};
-            cnt_out_wrap <= {CNT_W{1'b0}};
         end else begin
-            if (out_fire) begin
-                out_valid <= 1'b0;
-                cnt_out_sat <= cnt_out_sat + {{(CNT_W - 1){1'b0}}, out_sat};
-                cnt_out_wrap <= cnt_out_wrap + {{(CNT_W - 1){1'b0}}, out_wrap};
-            end
+            if (out_fire) out_valid <= 1'b0;
             if (in_fire) begin
-                cnt_acc_sat <= cnt_acc_sat + {{(CNT_W - 1){1'b0}}, acc_sat};
-                cnt_acc_wrap <= cnt_acc_wrap + {{(CNT_W - 1){1'b0}}, acc_wrap};
                 if (emit) out_valid <= 1'b1;
                 if (pix == LAST_PIX) begin
                     pix <= {PW{1'b0}};
