@@ -270,10 +270,10 @@ def _required_flux(s: Scenario, idx: np.ndarray) -> float:
     unit = replace(s, assay=replace(s.assay, photons_per_s_per_um2=1.0))
     edges = np.array([s.assay.start_s, s.run.duration_s])
     n = s.chip.dsp.average_frames
+    lit = prepare(unit)
     figures = []
     for flux in (1.0, 0.0):
-        scene = prepare(unit)
-        scene = replace(scene, pix_photons=scene.pix_photons * flux)
+        scene = replace(lit, pix_photons=lit.pix_photons * flux)
         out = simulate(unit, scene, "expected", stage_rng(s.scenario.seed, "required_flux"),
                        Recorder())  # the expected level draws nothing
         sig, var = window_sums(out.block_t_s, out.mean_e, out.var_e2, out.dark_var_e2, n, edges,
