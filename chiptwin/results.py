@@ -19,7 +19,7 @@ from chiptwin.kinetics import pyro
 if TYPE_CHECKING:
     from chiptwin.chip import ChipRun, Schedule
     from chiptwin.dsp.pipeline import Pipeline
-    from chiptwin.run import ChainOutput, Scene
+    from chiptwin.scene import ChainOutput, Scene
 
 #: Chip flags under which per-site figures and calls are not to be trusted.
 INVALIDATING_FLAGS = frozenset({"memory_overflow", "dsp_cannot_keep_up", "adc_clipped"})

@@ -9,10 +9,7 @@ named random stream (:func:`stage_rng`), so adding a stage never shifts another'
 from __future__ import annotations
 
 import time
-import zlib
-from collections import defaultdict
 from collections.abc import Callable, Iterable
-from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -26,12 +23,7 @@ from chiptwin.config.consistency import check_consistency, scenario_warnings
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
 from chiptwin.dsp.pipeline import Frame, Pipeline, chain_for
 from chiptwin.results import detect, light_decay_per_s
-
-
-def stage_rng(seed: int, stage: str) -> np.random.Generator:
-    """The random stream of one stage: ``SeedSequence(seed)``'s child keyed by the stage's name."""
-    key = zlib.crc32(stage.encode())
-    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(key,)))
+from chiptwin.scene import ChainOutput, Scene, StageTimer, stage_rng
 
 
 @dataclass
@@ -42,41 +34,6 @@ class Result:
     arrays: dict[str, np.ndarray]
     trace: Recorder
     scenario: Scenario
-
-
-class StageTimer:
-    """Wall time per stage, accumulated over the run."""
-
-    def __init__(self) -> None:
-        self.seconds: dict[str, float] = defaultdict(float)
-
-    @contextmanager
-    def __call__(self, stage: str):
-        t0 = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.seconds[stage] += time.perf_counter() - t0
-
-
-@dataclass
-class ChainOutput:
-    """The chip model's outputs at the pixels, in electrons.
-
-    Electrons are read back from codes at the ADC's nominal gain, as the chip itself would: an
-    ADC gain error (``chip.adc.gain_error``) shows up as a scale error of every figure.
-    """
-
-    chip: ChipRun
-    block_t_s: np.ndarray
-    value_e: np.ndarray
-    mean_e: np.ndarray
-    var_e2: np.ndarray
-    dark_var_e2: np.ndarray
-    dsp: Pipeline
-    saturation_s: np.ndarray | None = None  # events level: (n_frames, n_sites), inf = not full
-    adc_clipped_samples: int = 0
-    full_well_pixel_frames: int = 0
 
 
 def run(
@@ -104,7 +61,20 @@ def run(
         s = load_scenario(scenario, overrides, seed)
     check_consistency(s)  # a Scenario built or replaced in Python meets the file's rules too
     timer = StageTimer()
-    scene = prepare(s, timer)
+    return run_prepared(s, prepare(s, timer), timer, progress, t_start)
+
+
+def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
+                 progress: Callable[[int, int], None] | None = None,
+                 t_start: float | None = None) -> Result:
+    """The chip model and the detection for a scene :func:`prepare` made of ``s``.
+
+    A study prepares a point once and calls this per replicate with ``s`` carrying the
+    replicate's seed: the result is bit for bit the one :func:`run` gives for that seed (the
+    random draws all happen here, from ``s.scenario.seed``'s named streams).
+    """
+    t_start = time.perf_counter() if t_start is None else t_start
+    timer = timer or StageTimer()
     rec = Recorder()
     out = simulate(s, scene, s.run.fidelity.photons, stage_rng(s.scenario.seed, "pixel"), rec,
                    timer, progress)
@@ -136,18 +106,6 @@ def fidelity_used(s: Scenario) -> dict[str, str]:
             "dsp": s.dsp_level}
 
 
-@dataclass(frozen=True)
-class Scene:
-    """What the chip sees: its schedule, the light per site and per pixel, and its sensor."""
-
-    sch: Schedule
-    source: stages.LightSource
-    site_photons: np.ndarray
-    coupling: np.ndarray
-    pix_photons: np.ndarray
-    sensor: stages.SensorModel
-
-
 def prepare(s: Scenario, timer: StageTimer | None = None) -> Scene:
     """Kinetics and optics: photons per site and per pixel in every integration window."""
     timer = timer or StageTimer()
@@ -159,9 +117,14 @@ def prepare(s: Scenario, timer: StageTimer | None = None) -> Scene:
     with timer("optics"):
         coupling = stages.coupling(s)
         pix_photons = coupling @ site_photons
+    return Scene(sch, source, site_photons, coupling, pix_photons, chip_sensor(s))
+
+
+def chip_sensor(s: Scenario) -> stages.SensorModel:
+    """The sensor of this chip: its PRNU/DSNU maps drawn from ``chip.fixed_pattern_seed``, or
+    from ``scenario.seed`` when that is -1 (one chip per seed)."""
     chip_seed = s.chip.fixed_pattern_seed if s.chip.fixed_pattern_seed >= 0 else s.scenario.seed
-    sensor = stages.sensor_model(s, stage_rng(chip_seed, "fixed_pattern"))
-    return Scene(sch, source, site_photons, coupling, pix_photons, sensor)
+    return stages.sensor_model(s, stage_rng(chip_seed, "fixed_pattern"))
 
 
 def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Generator,
