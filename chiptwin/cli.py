@@ -35,10 +35,19 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--quiet", action="store_true", help="no progress, no table")
     v = sub.add_parser("validate", help="check a scenario file without running it")
     _scenario_args(v)
-    sub.add_parser("list", help="list the bundled scenarios")
+    sub.add_parser("list", help="list the bundled scenarios and studies")
     d = sub.add_parser("dsp-report", help="fixed-point DSP vs float on a scenario's data")
     _scenario_args(d)
     d.add_argument("--json", help="also write the report as JSON to this file")
+    st = sub.add_parser("study", help="run a budget study: axes × replicates → the answer")
+    st.add_argument("study", help="a study TOML file, or the name of a bundled study")
+    st.add_argument("--out", help="output folder (default: out/<study name>); an existing one "
+                    "resumes the study")
+    st.add_argument("--workers", type=int, help="local processes (default: every core)")
+    st.add_argument("--scheduler", help='a Dask scheduler address, or "local" for a Dask '
+                    "LocalCluster (needs the [dask] extra)")
+    st.add_argument("--fresh", action="store_true", help="discard stored rows and start over")
+    st.add_argument("--quiet", action="store_true", help="no progress")
     return p
 
 
@@ -60,6 +69,29 @@ def bundled_scenarios() -> dict[str, Path]:
     except ModuleNotFoundError:
         files = list((Path(__file__).resolve().parents[1] / "scenarios").iterdir())
     return {f.stem: f for f in sorted(files) if f.suffix == ".toml"}
+
+
+def bundled_studies() -> dict[str, Path]:
+    """The studies shipped with the package (``scenarios/studies``), by name."""
+    folder = bundled_scenarios_folder() / "studies"
+    return {f.stem: f for f in sorted(folder.iterdir()) if f.suffix == ".toml"} if \
+        folder.is_dir() else {}
+
+
+def bundled_scenarios_folder() -> Path:
+    """The folder of the bundled scenarios (installed, or the source tree's)."""
+    try:
+        return Path(str(next(iter(resources.files("chiptwin.scenarios").iterdir())))).parent
+    except (ModuleNotFoundError, StopIteration):
+        return Path(__file__).resolve().parents[1] / "scenarios"
+
+
+def resolve_study(name: str) -> Path:
+    """A path as given, or a bundled study's file."""
+    path = Path(name)
+    if path.exists() or path.suffix == ".toml":
+        return path
+    return bundled_studies().get(name, path)
 
 
 def resolve_scenario(name: str) -> Path:
@@ -98,7 +130,12 @@ def _dispatch(args: argparse.Namespace) -> int:
     if args.command == "list":
         for name, path in sorted(bundled_scenarios().items()):
             print(f"{name:24s} {_first_comment(path)}")
+        print("\nstudies (chiptwin study NAME):")
+        for name, path in sorted(bundled_studies().items()):
+            print(f"{name:24s} {_first_comment(path)}")
         return 0
+    if args.command == "study":
+        return _study(args)
     path = resolve_scenario(args.scenario)
     scenario = load_scenario(path, args.set, args.seed)
     if args.command == "validate":
@@ -144,6 +181,31 @@ def _dsp_report(scenario, json_path: str | None) -> int:
     return 0
 
 
+def _study(args: argparse.Namespace) -> int:
+    from chiptwin.report import check_out_dir
+    from chiptwin.study import load_study, run_study
+    from chiptwin.study.outputs import answer_lines, write_study_outputs
+    from chiptwin.study.store import DB_NAME
+
+    if args.workers is not None and not 1 <= args.workers <= 1024:
+        raise ScenarioError("chiptwin", "--workers", args.workers, "must be in [1, 1024]")
+    study = load_study(resolve_study(args.study), resolve_scenario)
+    out = check_out_dir(args.out or Path("out") / study.name, marker=DB_NAME)
+    out.mkdir(exist_ok=True)
+    (out / "study.json").unlink(missing_ok=True)  # written last: its presence means complete
+    progress = None if args.quiet else _Progress("rows", after_s=0.0)
+    result = run_study(study, workers=args.workers, scheduler=args.scheduler,
+                       db=out / DB_NAME, fresh=args.fresh, progress=progress)
+    write_study_outputs(result, out)
+    for line in answer_lines(result.summary):
+        print(line)
+    runs = result.summary["runs"]
+    print(f"  {runs['total']} runs ({runs['computed']} computed now, {runs['resumed']} resumed) "
+          f"in {result.summary['wall_time_s']:.1f} s; outputs in {out}/ (study.json, "
+          "results.csv, results.sqlite, report.md)")
+    return 0
+
+
 def _first_comment(path: Path) -> str:
     for line in path.read_text().splitlines():
         if line.startswith("#"):
@@ -152,19 +214,30 @@ def _first_comment(path: Path) -> str:
 
 
 class _Progress:
-    """Prints progress to stderr once a run has taken more than two seconds, then every second."""
+    """Progress on stderr once work has taken ``after_s`` seconds, then every second: a bar with
+    the rate and the time left on a terminal, a plain line off one."""
 
-    def __init__(self) -> None:
+    def __init__(self, unit: str = "frames", after_s: float = 1.0) -> None:
+        self.unit = unit
         self.t0 = time.perf_counter()
-        self.last = self.t0 + 1.0
+        self.last = self.t0 + after_s
+        self.first: tuple[float, int] | None = None
 
     def __call__(self, done: int, total: int) -> None:
         now = time.perf_counter()
+        self.first = self.first or (now, done - 1)
         if now - self.last >= 1.0 or (done == total and now - self.t0 > 2.0):
             self.last = now
             tty = sys.stderr.isatty()
-            start = "\r" if tty else ""
-            print(f"{start}  frames {done}/{total} ({100 * done / total:.0f} %)",
+            t_first, n_first = self.first
+            rate = (done - n_first) / max(now - t_first, 1e-9)
+            eta = (total - done) / rate if rate > 0 else float("inf")
+            bar, start = "", "\r" if tty else ""
+            if tty:
+                filled = int(30 * done / max(total, 1))
+                bar = "[" + "#" * filled + "." * (30 - filled) + "] "
+            print(f"{start}  {bar}{self.unit} {done}/{total} "
+                  f"({100 * done / max(total, 1):.0f} %, {rate:.3g}/s, ETA {eta:.0f} s)",
                   end="" if tty and done < total else "\n", file=sys.stderr, flush=True)
 
 

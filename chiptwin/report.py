@@ -23,11 +23,12 @@ OUTPUT_MARK = "summary.json"
 """A folder holding this file is a previous chiptwin output, which a new run may replace."""
 
 
-def check_out_dir(out_dir: str | Path) -> Path:
+def check_out_dir(out_dir: str | Path, marker: str = OUTPUT_MARK) -> Path:
     """Where a run may write, checked before it starts; returns the resolved folder.
 
     A run replaces its output folder whole, so the folder must be new, empty, or a previous
-    chiptwin output (it holds ``summary.json``); never the working folder or one of its parents.
+    chiptwin output (it holds ``marker``: ``summary.json`` for a run, ``results.sqlite`` for a
+    study); never the working folder or one of its parents.
 
     Raises
     ------
@@ -41,9 +42,9 @@ def check_out_dir(out_dir: str | Path) -> Path:
     if out.exists():
         if not out.is_dir():
             _refuse(out_dir, "is a file; must be a folder (new, empty, or a previous output)")
-        if any(out.iterdir()) and not (out / OUTPUT_MARK).is_file():
-            _refuse(out_dir, f"holds files but no {OUTPUT_MARK}: it is not a previous chiptwin "
-                             "output, and a run replaces its folder whole")
+        if any(out.iterdir()) and not (out / marker).is_file():
+            _refuse(out_dir, f"holds files but no {marker}: it is not a previous chiptwin "
+                             "output, and chiptwin writes over its outputs")
     try:  # the folder that will hold it (never the output folder itself, written last)
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

@@ -1,0 +1,369 @@
+"""``run_study``: validate every point, run the rows a search needs, store them, summarise.
+
+Order of work: (1) every point's scenario is validated before the first run (a typo costs a
+second; an inconsistent combination becomes an ``invalid`` point, shown in the report); (2) the
+reference points run first (their rows define the ideal of ``snr_loss_db``); (3) the grid runs
+every point × replicate, or the bisection runs points one at a time, adding ``batch`` replicates
+until every requirement is decided (or the cap ``replicates`` is reached); (4) rows already in
+the store are never recomputed, so the same command resumes an interrupted study.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from chiptwin import __version__
+from chiptwin.config import ScenarioError
+from chiptwin.study import search
+from chiptwin.study.execute import make_executor
+from chiptwin.study.metrics import CATALOGUE, row_metrics
+from chiptwin.study.rows import RowTask, chip_seed, row_seed
+from chiptwin.study.spec import Point, Study, load_study, point_scenario
+from chiptwin.study.stats import (
+    Estimate,
+    decide,
+    looks_confidence,
+    loss_db_interval,
+    mean_estimate,
+    rate_estimate,
+)
+from chiptwin.study.store import Store
+
+Progress = Callable[[int, int], None]
+
+
+@dataclass
+class StudyResult:
+    """A finished study: ``table`` (one dict per run), ``answer`` (one per combination of the
+    given axes), ``summary`` (what ``study.json`` holds)."""
+
+    study: Study
+    table: list[dict[str, Any]]
+    answer: list[dict[str, Any]]
+    summary: dict[str, Any] = field(default_factory=dict)
+
+
+def run_study(study: Study | str | Path, workers: int | None = None,
+              scheduler: str | None = None, db: str | Path = ":memory:", fresh: bool = False,
+              progress: Progress | None = None) -> StudyResult:
+    """Run a study and return its table and answer.
+
+    Parameters
+    ----------
+    study : a :class:`Study` or a study file
+    workers : processes of the local pool (default: every core; 1 runs in this process)
+    scheduler : a Dask scheduler address, or ``"local"`` for a ``distributed.LocalCluster``
+    db : the SQLite file rows go to (``":memory:"``: nothing kept); an existing one resumes
+    fresh : discard the rows stored in ``db`` first
+    progress : ``progress(rows_done, rows_total)`` as rows finish
+    """
+    t0 = time.perf_counter()
+    if not isinstance(study, Study):
+        from chiptwin.cli import resolve_scenario
+
+        study = load_study(study, resolve_scenario)
+    plan = _Plan(study)  # validates every point before anything runs
+    store = Store(db, study, fresh=fresh)
+    try:
+        resumed = len(store.done())
+        executor = make_executor(workers, scheduler)
+        try:
+            runner = _Runner(plan, store, executor, progress)
+            decisions = runner.search()
+        finally:
+            executor.close()
+        table = store.rows()
+    finally:
+        store.close()
+    summary = summarise(plan, table, decisions)
+    summary["runs"].update(resumed=resumed, computed=runner.computed)
+    summary.update(wall_time_s=round(time.perf_counter() - t0, 3),
+                   executor={"kind": executor.name, "workers": executor.workers})
+    return StudyResult(study, table, summary["answer"], summary)
+
+
+class _Plan:
+    """The study's points, their validated scenarios, and their reference points."""
+
+    def __init__(self, study: Study) -> None:
+        self.study = study
+        self.metrics = row_metrics(study.metrics)
+        self.points = study.points()
+        refs = {p.id: study.reference_point(p) for p in self.points}
+        own = {p.id for p in self.points}
+        self.reference_of = {pid: (r.id if r else None) for pid, r in refs.items()}
+        self.references = {r.id: r for r in refs.values() if r and r.id not in own}
+        fps = None
+        if not study.vary_chip:
+            pinned = study.base_raw.get("chip", {}).get("fixed_pattern_seed", -1)
+            fps = pinned if pinned >= 0 else chip_seed(study.seed)
+        self.scenarios: dict[str, Any] = {}
+        self.invalid: dict[str, str] = {}
+        for p in [*self.points, *self.references.values()]:
+            try:
+                self.scenarios[p.id] = point_scenario(study, p.params, study.seed, fps)
+            except ScenarioError as exc:
+                self.invalid[p.id] = str(exc)
+        self.by_id = {p.id: p for p in [*self.points, *self.references.values()]}
+        bad = [self.invalid[r] for r in self.reference_of.values() if r in self.invalid]
+        if bad:  # every loss is measured against it: a broken reference is a bad study
+            raise ScenarioError(study.source, "study.reference", study.reference,
+                                f"gives an inconsistent scenario: {bad[0]}")
+
+    def tasks(self, point_id: str, replicates: range) -> list[RowTask]:
+        p = self.by_id[point_id]
+        return [RowTask(p.id, "reference" if p.reference else "point", r,
+                        row_seed(self.study.seed, p.id, r), p.params, self.metrics,
+                        self.scenarios.get(p.id), self.invalid.get(p.id, ""))
+                for r in replicates]
+
+
+class _Runner:
+    """Runs missing rows through the executor into the store; keeps the rows in memory."""
+
+    def __init__(self, plan: _Plan, store: Store, executor, progress: Progress | None) -> None:
+        self.plan, self.store, self.executor, self.progress = plan, store, executor, progress
+        self.rows: dict[tuple[str, int], dict] = {(r["point"], r["replicate"]): r
+                                                  for r in store.rows()}
+        self.computed = 0
+        self.total = 0
+
+    def ensure(self, wanted: list[tuple[str, int]]) -> None:
+        """Run every ``(point, replicates)`` row not stored yet."""
+        tasks = [t for pid, n in wanted for t in self.plan.tasks(pid, range(n))
+                 if (t.point, t.replicate) not in self.rows]
+        self.total = max(self.total, len(self.rows) + len(tasks))
+        for row in self.executor.run(tasks):
+            self.store.add(row)
+            self.rows[(row["point"], row["replicate"])] = row
+            self.computed += 1
+            if self.progress:
+                self.progress(len(self.rows), self.total)
+
+    def point_rows(self, pid: str, n: int) -> list[dict]:
+        return [self.rows[(pid, r)] for r in range(n) if (pid, r) in self.rows]
+
+    def search(self) -> dict[str, dict[str, Any]]:
+        """Run what the search needs; returns, per point id, its replicates and confidence."""
+        study, plan = self.plan.study, self.plan
+        cap = study.replicates
+        refs = sorted({r for r in plan.reference_of.values() if r})
+        if study.search == "grid":
+            self.total = (len(plan.points) + len(plan.references)) * cap
+            self.ensure([(pid, cap) for pid in refs] + [(p.id, cap) for p in plan.points])
+            return {p.id: {"n": cap, "confidence": study.confidence} for p in plan.points}
+        self.ensure([(pid, cap) for pid in refs])
+        looks = -(-cap // study.batch)
+        conf = looks_confidence(study.confidence, looks)
+        out: dict[str, dict[str, Any]] = {}
+        for group in _given_groups(plan.points):
+            def decide_index(i: int, group=group) -> str:
+                p = group[i]
+                n = 0
+                while n < cap:
+                    n = min(cap, n + study.batch)
+                    self.ensure([(p.id, n)])
+                    status = point_status(plan, p, self.point_rows(p.id, n),
+                                          self._ref_rows(p.id), conf)["status"]
+                    if status in ("pass", "fail", "invalid"):
+                        break
+                out[p.id] = {"n": n, "confidence": conf, "looks": looks}
+                return status
+            search.bisect(len(group), decide_index, study.verify)
+        return out
+
+    def _ref_rows(self, pid: str) -> list[dict]:
+        ref = self.plan.reference_of.get(pid)
+        return self.point_rows(ref, self.plan.study.replicates) if ref else []
+
+
+def _given_groups(points: list[Point]) -> list[list[Point]]:
+    """Points grouped by the given axes' values, each group in cost order."""
+    groups: dict[tuple, list[Point]] = {}
+    for p in points:
+        groups.setdefault(tuple(json.dumps(g) for g in p.given), []).append(p)
+    return [sorted(g, key=lambda p: p.cost) for g in groups.values()]
+
+
+def point_estimates(plan: _Plan, rows: list[dict], ref_rows: list[dict], confidence: float
+                    ) -> dict[str, Estimate]:
+    """Every metric of a point from its ``ok`` rows."""
+    ok = [r["metrics"] for r in rows if r["status"] == "ok"]
+    out: dict[str, Estimate] = {}
+    if not ok:
+        return out
+    for name in (*plan.study.metrics, *[m for m in plan.metrics if m not in plan.study.metrics]):
+        kind = CATALOGUE[name].kind
+        if kind == "rate":
+            k = sum(m[name][0] for m in ok)
+            n = sum(m[name][1] for m in ok)
+            out[name] = rate_estimate(k, n, len(ok), confidence)
+        elif kind == "mean":
+            out[name] = mean_estimate(np.array([m[name] for m in ok]), confidence)
+        else:
+            ref = [r["metrics"]["snr_power"] for r in ref_rows if r["status"] == "ok"]
+            if ref:
+                out[name] = loss_db_interval(np.array([m["snr_power"] for m in ok]),
+                                             np.array(ref), confidence)
+    return out
+
+
+def point_status(plan: _Plan, p: Point, rows: list[dict], ref_rows: list[dict],
+                 confidence: float) -> dict[str, Any]:
+    """Estimates, one decision per requirement, and the point's status."""
+    est = point_estimates(plan, rows, ref_rows, confidence)
+    if rows and all(r["status"] == "invalid" for r in rows):
+        return {"status": "invalid", "estimates": est, "decisions": {}}
+    decisions = {str(q): decide(est[q.metric], q.op, q.threshold) if q.metric in est
+                 else "undecided" for q in plan.study.requirements}
+    if not plan.study.requirements:
+        status = "measured"
+    elif "fail" in decisions.values():
+        status = "fail"
+    elif all(d == "pass" for d in decisions.values()):
+        status = "pass"
+    else:
+        status = "undecided"
+    return {"status": status, "estimates": est, "decisions": decisions}
+
+
+def summarise(plan: _Plan, table: list[dict], searched: dict[str, dict]) -> dict[str, Any]:
+    """``study.json``: every point's estimates, the answer per given combination, the
+    monotonicity check, run counts."""
+    study = plan.study
+    by_point: dict[str, list[dict]] = {}
+    for row in table:
+        by_point.setdefault(row["point"], []).append(row)
+    points, status_of = [], {}
+    for p in plan.points:
+        info = searched.get(p.id)
+        n = info["n"] if info else 0
+        rows = [r for r in by_point.get(p.id, []) if r["replicate"] < n]
+        ref = plan.reference_of.get(p.id)
+        ref_rows = by_point.get(ref, []) if ref else []
+        st = point_status(plan, p, rows, ref_rows, info["confidence"] if info else
+                          study.confidence) if info else {"status": "not_visited",
+                                                            "estimates": {}, "decisions": {}}
+        status_of[p.id] = st
+        points.append({
+            "id": p.id, "params": p.params, "given": list(p.given), "cost": list(p.cost),
+            "reference": ref, "status": st["status"], "replicates": len(rows),
+            "rows": {s: sum(r["status"] == s for r in rows) for s in ("ok", "invalid", "error")},
+            "confidence": info["confidence"] if info else None,
+            "metrics": {k: e.as_dict() for k, e in st["estimates"].items()},
+            "decisions": st["decisions"],
+            "message": next((r["message"] for r in rows if r["message"]),
+                            plan.invalid.get(p.id, "")),
+        })
+    answers, violations = [], []
+    for group in _given_groups(plan.points):
+        violations += _monotonicity(study, group, status_of)
+        answers.append(_answer(study, group, status_of))
+    counts = {s: sum(r["status"] == s for r in table) for s in ("ok", "invalid", "error")}
+    return {
+        "study": study.name, "description": study.description, "source": study.source,
+        "scenario": study.scenario_path, "seed": study.seed, "search": study.search,
+        "replicates": study.replicates, "vary_chip": study.vary_chip,
+        "reference": study.reference, "confidence": study.confidence,
+        "axes": [dataclasses.asdict(a) for a in study.axes],
+        "requirement": [str(q) for q in study.requirements],
+        "answer": answers, "points": points,
+        "monotonicity": {"assumption": "along each budget axis, cheapest first, a point that "
+                         "meets the requirement is followed only by points that meet it",
+                         "violations": violations},
+        "statistics": {"rates": "Clopper-Pearson exact, pooled trials over replicates",
+                       "means": "Student t over replicates",
+                       "snr_loss_db": "delta method on ln of mean power SNR, t quantile",
+                       "requirement": "met when the one-sided bound at `confidence` is on the "
+                                      "allowed side; " + search.UNDECIDED_IS_FAIL,
+                       "bisect": "per-look confidence 1-(1-c)/looks (Bonferroni over the "
+                                 "sequential looks)" if study.search == "bisect" else None},
+        "runs": {"total": len(table), **counts},
+        "chiptwin_version": __version__,
+    }
+
+
+def _answer(study: Study, group: list[Point], status_of: dict) -> dict[str, Any]:
+    given = {a.key: v for a, v in zip(study.given_axes, group[0].given, strict=False)}
+    if not study.requirements:
+        return {"given": given, "point": None, "statement": "no requirement: nothing to answer"}
+    decisions = [status_of[p.id]["status"] for p in group]
+    # a point counts only if nothing costlier along its line fails (monotone from it on)
+    bad = {v["pass_at"] for v in _line_violations(study, group, status_of)}
+    usable = [d if i not in bad else "fail" for i, d in enumerate(decisions)]
+    i = search.cheapest([p.cost for p in group], usable)
+    if i is None:
+        return {"given": given, "point": None, "statement": "no point meets " + " and ".join(
+            map(str, study.requirements)) + f" at {study.confidence:.0%} confidence"}
+    p, est = group[i], status_of[group[i].id]["estimates"]
+    bounds = {}
+    for q in study.requirements:
+        e = est[q.metric]
+        bound = e.upper if q.op == "<=" else e.lower
+        bounds[str(q)] = {"estimate": e.value, "bound": bound, "n": e.n, "method": e.method,
+                          **({"k": e.k, "trials": e.trials} if e.k is not None else {})}
+    return {"given": given, "point": p.params, "id": p.id, "bounds": bounds,
+            "statement": statement(study, p, est)}
+
+
+def statement(study: Study, p: Point, est: dict[str, Estimate]) -> str:
+    """The answer in one sentence, with every bound and its n."""
+    budget = ", ".join(f"{k} = {v}" for k, v in p.params.items()
+                       if k in {a.key for a in study.budget_axes})
+    parts = []
+    for q in study.requirements:
+        e = est[q.metric]
+        bound = e.upper if q.op == "<=" else e.lower
+        side = "upper" if q.op == "<=" else "lower"
+        seen = f"{e.k}/{e.trials} {CATALOGUE[q.metric].unit}" if e.k is not None else \
+            f"{e.value:.4g}"
+        parts.append(f"{q} ({seen}; one-sided {study.confidence:.0%} {side} bound "
+                     f"{bound:.3g}, {e.method}, n = {e.n} runs)")
+    return f"cheapest: {budget}: " + "; ".join(parts)
+
+
+def _line_violations(study: Study, group: list[Point], status_of: dict) -> list[dict]:
+    """Decision violations along each budget axis, as indices into ``group``."""
+    out = []
+    for ax in range(len(study.budget_axes)):
+        lines: dict[tuple, dict[int, int]] = {}
+        for i, p in enumerate(group):
+            rest = p.cost[:ax] + p.cost[ax + 1:]
+            lines.setdefault(rest, {})[p.cost[ax]] = i
+        for line in lines.values():
+            dec = {c: status_of[group[i].id]["status"] for c, i in line.items()}
+            for v in search.violations(dec):
+                out.append({"axis": study.budget_axes[ax].key, "pass_at": line[v["pass_at"]],
+                            "fail_at": line[v["fail_at"]]})
+    return out
+
+
+def _monotonicity(study: Study, group: list[Point], status_of: dict) -> list[dict]:
+    """Violations for the report: decision pairs, and metrics significantly worse (disjoint
+    intervals) at a costlier point along a budget axis."""
+    out = [{"kind": "decision", "axis": v["axis"], "passes": group[v["pass_at"]].params,
+            "fails": group[v["fail_at"]].params}
+           for v in _line_violations(study, group, status_of)]
+    if len(study.budget_axes) != 1:
+        return out
+    seen = [p for p in group if status_of[p.id]["estimates"]]
+    for q in study.requirements:
+        for a, b in zip(seen, seen[1:], strict=False):
+            ea, eb = status_of[a.id]["estimates"].get(q.metric), status_of[b.id][
+                "estimates"].get(q.metric)
+            if ea is None or eb is None:
+                continue
+            worse = eb.lo > ea.hi if q.op == "<=" else eb.hi < ea.lo
+            if worse:
+                out.append({"kind": "metric", "metric": q.metric, "cheaper": a.params,
+                            "costlier": b.params, "cheaper_interval": [ea.lo, ea.hi],
+                            "costlier_interval": [eb.lo, eb.hi]})
+    return out

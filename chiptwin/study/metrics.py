@@ -1,0 +1,168 @@
+"""The metric catalogue: what a study can measure of each run, and how it is summarised.
+
+Each metric is computed per run (one row of the ``runs`` table) from the run's summary and
+arrays. Two kinds:
+
+- ``rate``: a count of successes ``k`` out of ``n`` trials in the run (``calls_correct``: reads
+  equal to the template out of the sites' reads; ``base_error_rate``: base errors out of the
+  template's bases over every site). Pooled over replicates they carry exact Clopper–Pearson
+  intervals. Trials within a run are the chip's sites: independent reads given the chip (own
+  pixel, own temporal noise); with ``vary_chip = false`` every interval is conditional on that
+  one chip.
+- ``mean``: a number per run (``snr_power``, ``memory_peak_frames``, …), summarised by its mean
+  with a Student-t interval over replicates.
+
+``snr_loss_db`` is derived per point: ``10·log10(mean SNR_ref / mean SNR)`` from the power SNR of
+the point's rows and of its reference point's rows (``study.reference``), with a delta-method
+interval (:func:`chiptwin.study.stats.loss_db_interval`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from chiptwin.config import Scenario
+    from chiptwin.run import Result
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One entry of the catalogue."""
+
+    name: str
+    kind: str  # "rate", "mean" or "loss" (derived from snr_power and the reference)
+    unit: str
+    doc: str
+    extract: Callable[[Result], Any] | None = None
+    pyro_only: bool = False
+    needs_fixed: bool = False
+
+
+def edit_distance(a: str, b: str) -> int:
+    """Levenshtein distance: substitutions, insertions and deletions turning ``a`` into ``b``.
+
+    Per-base error counting for sequencing reads (insertions and deletions are the dominant
+    pyrosequencing errors, at homopolymers).
+    """
+    prev = list(range(len(b) + 1))
+    for i, ca in enumerate(a, 1):
+        cur = [i]
+        for j, cb in enumerate(b, 1):
+            cur.append(min(prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (ca != cb)))
+        prev = cur
+    return prev[-1]
+
+
+def _calls(r: Result) -> tuple[int, int]:
+    true = r.summary["true_sequence"]
+    reads = r.summary["called_sequences"]
+    return sum(c == true for c in reads), len(reads)
+
+
+def _base_errors(r: Result) -> tuple[int, int]:
+    """Errors per read clamp at the template length, so ``k ≤ n`` (a read of pure noise is
+    every base wrong, not more)."""
+    true = r.summary["true_sequence"]
+    reads = r.summary["called_sequences"]
+    errors = sum(min(edit_distance(c, true), len(true)) for c in reads)
+    return errors, len(true) * len(reads)
+
+
+def _flow_value_error(r: Result) -> float:
+    true_n = np.array([f["true_n"] for f in r.summary["flows"]], dtype=float)
+    return float(np.max(np.abs(r.arrays["flow_values"] - true_n[None, :])))
+
+
+def _detected(r: Result) -> tuple[int, int]:
+    sites = r.summary["sites"]
+    return sum(s["detected"] for s in sites), len(sites)
+
+
+def _dsp_max_err(r: Result) -> float:
+    return float(r.summary["dsp"]["error_vs_float"]["max_abs_err_lsb"])
+
+
+def _chip(key: str) -> Callable[[Result], float]:
+    return lambda r: float(r.summary["chip"][key])
+
+
+def _min_site(key: str) -> Callable[[Result], float]:
+    return lambda r: float(min(s[key] for s in r.summary["sites"]))
+
+
+_METRICS = [
+    Metric("calls_correct", "rate", "reads", "reads equal to the whole template, of all sites' "
+           "reads (1 fmol headline: the chip calls the template)", _calls, pyro_only=True),
+    Metric("base_error_rate", "rate", "bases", "per-base errors (edit distance of each called "
+           "read to the template, clamped at its length) of the template's bases over all "
+           "sites", _base_errors, pyro_only=True),
+    Metric("sites_detected", "rate", "sites", "sites whose power SNR reaches "
+           "run.detection_snr_power", _detected),
+    Metric("results_valid", "rate", "runs", "runs whose figures are trustworthy (no memory "
+           "overflow, DSP keeping up, no ADC clipping)",
+           lambda r: (int(r.summary["results_valid"]), 1)),
+    Metric("snr_power", "mean", "1", "power SNR Q²/σ² (paper eq. 22), minimum over sites",
+           _min_site("snr_power")),
+    Metric("snr_amplitude", "mean", "1", "amplitude SNR Q/σ, minimum over sites",
+           _min_site("snr_amplitude")),
+    Metric("snr_loss_db", "loss", "dB", "10·log10(SNR_ref/SNR) of the mean power SNR against "
+           "the reference point (study.reference)"),
+    Metric("flow_value_error", "mean", "incorporations", "max |normalised flow value − true "
+           "incorporations| over flows and sites", _flow_value_error, pyro_only=True),
+    Metric("memory_peak_frames", "mean", "frames", "most raw frames held in frame memory at once",
+           _chip("memory_peak_frames")),
+    Metric("memory_capacity_frames", "mean", "frames", "raw frames the frame memory holds",
+           _chip("memory_capacity_frames")),
+    Metric("frames_dropped", "mean", "frames", "frames lost to a full frame memory",
+           _chip("overflows")),
+    Metric("dsp_utilization", "mean", "1", "DSP busy time / active time", _chip("dsp_utilization")),
+    Metric("overflows", "mean", "events", "DSP register saturations + wraps",
+           lambda r: float(sum(r.summary["dsp"]["overflow_total"].values()))),
+    Metric("adc_clipped", "mean", "samples", "ADC samples at code 0 or full scale",
+           _chip("adc_clipped_samples")),
+    Metric("dsp_max_err_lsb", "mean", "LSB", "max |fixed − float| DSP output error (the run "
+           "computes the float reference beside the fixed chain)", _dsp_max_err,
+           needs_fixed=True),
+]
+
+#: The catalogue, by name.
+CATALOGUE: dict[str, Metric] = {m.name: m for m in _METRICS}
+
+
+def row_metrics(names: tuple[str, ...]) -> tuple[str, ...]:
+    """The per-run metrics a study stores: those asked for, ``snr_power`` for a loss, and the
+    capacity beside the peak occupancy (for the memory plot)."""
+    out = [n for n in names if CATALOGUE[n].kind != "loss"]
+    if "snr_loss_db" in names and "snr_power" not in out:
+        out.append("snr_power")
+    if "memory_peak_frames" in names and "memory_capacity_frames" not in out:
+        out.append("memory_capacity_frames")
+    return tuple(out)
+
+
+def measure(result: Result, names: tuple[str, ...]) -> dict[str, Any]:
+    """Every per-run metric of ``names`` for one run: ``[k, n]`` for rates, a float otherwise."""
+    out: dict[str, Any] = {}
+    for name in names:
+        value = CATALOGUE[name].extract(result)
+        out[name] = list(value) if isinstance(value, tuple) else value
+    return out
+
+
+def check_metric_applies(name: str, s: Scenario, study: Any) -> str | None:
+    """Why ``name`` cannot be computed on this study's scenario, or None."""
+    m = CATALOGUE[name]
+    if m.pyro_only and s.assay.kind != "pyrosequencing":
+        return f"needs base calls; the scenario's assay kind is {s.assay.kind!r}"
+    if m.needs_fixed:
+        levels = {v for a in study.axes for v in a.values
+                  if a.key in ("chip.dsp.mode", "run.fidelity.dsp")} or {s.dsp_level}
+        if "float" in levels or s.run.fidelity.photons == "expected":
+            return ("compares the fixed DSP with float: needs chip.dsp.mode = 'fixed' (or "
+                    "'rtl') at every point and binned or events photons")
+    return None

@@ -1,0 +1,229 @@
+"""A study's outputs beside its database: ``results.csv``, ``study.json``, ``report.md``, plots.
+
+The folder keeps ``results.sqlite`` (the resumable store), so it is not replaced whole like a
+run's; each file is written to a temporary name and renamed into place, and ``study.json`` (the
+mark of a finished study) is removed when a study starts and written last.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from chiptwin.study.engine import StudyResult
+from chiptwin.study.metrics import CATALOGUE
+
+
+def write_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file and a rename."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def write_study_outputs(result: StudyResult, out: Path) -> None:
+    """Every output of a finished study into ``out`` (which holds its results.sqlite)."""
+    write_atomic(out / "results.csv", results_csv(result))
+    plots = make_plots(result.summary, out)
+    write_atomic(out / "report.md", report_markdown(result.summary, plots))
+    write_atomic(out / "study.json", json.dumps(result.summary, indent=1, default=str) + "\n")
+
+
+def results_csv(result: StudyResult) -> str:
+    """One line per run: identity, parameters, each metric (rates as ``_k`` and ``_n``)."""
+    params = list(dict.fromkeys(k for r in result.table for k in r["params"]))
+    metrics = [m for m in dict.fromkeys(k for r in result.table for k in (r["metrics"] or {}))]
+    cols = ["point", "kind", "replicate", "seed", "status", "wall_s", *params]
+    for m in metrics:
+        cols += [f"{m}_k", f"{m}_n"] if CATALOGUE[m].kind == "rate" else [m]
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow([*cols, "message"])
+    for r in result.table:
+        values = [r["point"], r["kind"], r["replicate"], r["seed"], r["status"],
+                  f"{r['wall_s']:.4f}", *[r["params"].get(k, "") for k in params]]
+        for m in metrics:
+            v = (r["metrics"] or {}).get(m, "")
+            values += list(v) if isinstance(v, list) else ["" if v == "" else repr(v)]
+            if isinstance(v, str) and CATALOGUE[m].kind == "rate":
+                values.append("")
+        w.writerow([*values, r["message"]])
+    return buf.getvalue()
+
+
+def answer_lines(summary: dict[str, Any]) -> list[str]:
+    """The answer, one line per combination of the given axes (what the CLI prints)."""
+    lines = []
+    for a in summary["answer"]:
+        given = ", ".join(f"{k} = {v}" for k, v in a["given"].items())
+        lines.append((f"[{given}] " if given else "") + a["statement"])
+    v = summary["monotonicity"]["violations"]
+    if v:
+        lines.append(f"MONOTONICITY VIOLATED at {len(v)} place(s): see study.json "
+                     "monotonicity.violations; the answer skips passing points below a failure")
+    return lines
+
+
+def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
+    """Each metric against each budget axis with its interval band (one line per combination
+    of the given axes), the requirement line and the answer marked; a heat map of the status for
+    two budget axes; memory occupancy against capacity."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    points = [p for p in summary["points"] if p["metrics"]]
+    budget = [a["key"] for a in summary["axes"] if not a["given"]]
+    names = list(dict.fromkeys(m for p in points for m in p["metrics"]))
+    requirement = {r.split()[0]: (r.split()[1], float(r.split()[2]))
+                   for r in summary["requirement"]}
+    answers = [a["point"] for a in summary["answer"] if a.get("point")]
+    plots = []
+    for axis in budget:
+        for name in names:
+            fig, ax = plt.subplots(figsize=(6.5, 3.4))
+            for given, group in _by_given(points, axis).items():
+                x = np.array([p["params"][axis] for p in group], dtype=float)
+                est = [p["metrics"].get(name) for p in group]
+                keep = [i for i, e in enumerate(est) if e is not None]
+                if not keep:
+                    continue
+                x, est = x[keep], [est[i] for i in keep]
+                v = np.array([_num(e["value"]) for e in est])
+                lo = np.array([_num(e["lo"]) for e in est])
+                hi = np.array([_num(e["hi"]) for e in est])
+                line = ax.plot(x, v, "o-", ms=3, label=given or None)[0]
+                ax.fill_between(x, lo, hi, alpha=0.2, color=line.get_color())
+                for a in answers:
+                    if a.get(axis) in x and all(a.get(k) == group[0]["params"].get(k)
+                                                for k in a if k != axis):
+                        i = int(np.flatnonzero(x == a[axis])[0])
+                        ax.plot(x[i], v[i], "*", ms=14, color=line.get_color(), zorder=5)
+            if name in requirement:
+                ax.axhline(requirement[name][1], color="red", ls="--", lw=1,
+                           label=f"requirement {requirement[name][0]} {requirement[name][1]:g}")
+            if name == "memory_peak_frames":
+                cap = [(p["params"][axis], p["metrics"]["memory_capacity_frames"]["value"])
+                       for p in points if "memory_capacity_frames" in p["metrics"]]
+                if cap:
+                    c = np.array(sorted(cap), dtype=float)
+                    ax.step(c[:, 0], c[:, 1], "k:", where="mid", label="capacity")
+            _log_if_wide(ax, axis, points, name)
+            ax.set(xlabel=axis, ylabel=f"{name} ({CATALOGUE[name].unit})",
+                   title=f"{name} vs {axis} ({summary['confidence']:.0%} interval band)")
+            if ax.get_legend_handles_labels()[0]:
+                ax.legend(fontsize=7)
+            fname = f"{name}_vs_{axis.replace('.', '_')}.png"
+            plots.append(_save(fig, folder, fname, f"{name} against {axis}; band: two-sided "
+                               f"{summary['confidence']:.0%} interval; star: the answer"))
+    if len(budget) == 2:
+        plots.append(_heat_map(summary, points, budget, folder))
+    return plots
+
+
+def _by_given(points: list[dict], axis: str) -> dict[str, list[dict]]:
+    groups: dict[str, list[dict]] = {}
+    for p in points:
+        label = ", ".join(f"{k}={v}" for k, v in p["params"].items() if k != axis)
+        groups.setdefault(label, []).append(p)
+    return {k: sorted(g, key=lambda p: p["params"][axis]) for k, g in groups.items()}
+
+
+def _log_if_wide(ax, axis: str, points: list[dict], name: str) -> None:
+    xs = [p["params"][axis] for p in points if isinstance(p["params"][axis], int | float)]
+    if xs and min(xs) > 0 and max(xs) / min(xs) >= 100:
+        ax.set_xscale("log")
+    ys = [_num(p["metrics"][name]["value"]) for p in points if name in p["metrics"]]
+    ys = [y for y in ys if np.isfinite(y)]
+    if ys and min(ys) > 0 and max(ys) / min(ys) >= 1000:
+        ax.set_yscale("log")
+
+
+def _heat_map(summary: dict, points: list[dict], budget: list[str], folder: Path):
+    import matplotlib.pyplot as plt
+
+    code = {"pass": 2, "undecided": 1, "fail": 0, "measured": 1, "invalid": -1}
+    xs = sorted({p["params"][budget[0]] for p in summary["points"]})
+    ys = sorted({p["params"][budget[1]] for p in summary["points"]})
+    grid = np.full((len(ys), len(xs)), np.nan)
+    for p in summary["points"]:
+        if p["status"] in code:
+            grid[ys.index(p["params"][budget[1]]), xs.index(p["params"][budget[0]])] = \
+                code[p["status"]]
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    im = ax.imshow(grid, origin="lower", cmap="RdYlGn", vmin=-1, vmax=2, aspect="auto")
+    ax.set_xticks(range(len(xs)), [str(x) for x in xs], fontsize=7)
+    ax.set_yticks(range(len(ys)), [str(y) for y in ys], fontsize=7)
+    ax.set(xlabel=budget[0], ylabel=budget[1], title="Requirement met (green) or not (red)")
+    fig.colorbar(im, ax=ax, ticks=[-1, 0, 1, 2], label="invalid / fail / undecided / pass")
+    return _save(fig, folder, "status_map.png", "Status of every point over the two budget axes")
+
+
+def _num(v) -> float:
+    return {"inf": np.inf, "-inf": -np.inf, None: np.nan}.get(v, v) if not isinstance(
+        v, int | float) else float(v)
+
+
+def _save(fig, folder: Path, name: str, caption: str) -> tuple[str, str]:
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    tmp = folder / f".{name}.tmp.png"
+    fig.savefig(tmp, dpi=100)
+    os.replace(tmp, folder / name)
+    plt.close(fig)
+    return name, caption
+
+
+def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> str:
+    """The answer, the statistics used, a table of every point, and the plots."""
+    lines = [f"# Study {summary['study']}", "", summary.get("description", ""), "",
+             "## Answer", ""]
+    lines += [f"- {line}" for line in answer_lines(summary)]
+    lines += ["", f"Requirement: {' and '.join(summary['requirement']) or '(none)'} at "
+              f"{summary['confidence']:.0%} confidence (one-sided bounds). Search: "
+              f"{summary['search']}. Replicates per point: {summary['replicates']} "
+              f"({'every replicate another chip' if summary['vary_chip'] else 'one chip'}).", ""]
+    lines += ["Statistics: " + "; ".join(f"{k}: {v}" for k, v in summary["statistics"].items()
+                                         if v), ""]
+    r = summary["runs"]
+    lines += [f"Runs: {r['total']} stored ({r['ok']} ok, {r['invalid']} invalid, {r['error']} "
+              f"error); {r.get('computed', 0)} computed in {summary['wall_time_s']:.1f} s on "
+              f"{summary['executor']['kind']} × {summary['executor']['workers']}.", ""]
+    lines += ["## Points", "", "| point | status | n | " + " | ".join(_metric_cols(summary))
+              + " |", "|---|---|---|" + "---|" * len(_metric_cols(summary))]
+    for p in summary["points"]:
+        label = ", ".join(f"{k}={v}" for k, v in p["params"].items())
+        cells = [_cell(p["metrics"].get(m)) for m in _metric_cols(summary)]
+        lines.append(f"| {label} | {p['status']} | {p['replicates']} | " + " | ".join(cells)
+                     + " |")
+    bad = [p for p in summary["points"] if p["message"]]
+    if bad:
+        lines += ["", "## Invalid or failed points", ""]
+        lines += [f"- {', '.join(f'{k}={v}' for k, v in p['params'].items())}: {p['message']}"
+                  for p in bad]
+    lines += ["", "## Plots", ""]
+    lines += [f"![{cap}]({name})\n\n*{cap}*\n" for name, cap in plots]
+    return "\n".join(lines) + "\n"
+
+
+def _metric_cols(summary: dict) -> list[str]:
+    return list(dict.fromkeys(m for p in summary["points"] for m in p["metrics"]))
+
+
+def _cell(e: dict | None) -> str:
+    if e is None:
+        return "–"
+    if "k" in e:
+        if e["k"] == 0:
+            return f"0/{e['trials']} (< {e['upper']:.2g})"
+        return f"{e['k']}/{e['trials']} [{e['lo']:.2g}, {e['hi']:.2g}]"
+    lo, hi = _num(e.get("lo")), _num(e.get("hi"))
+    return f"{_num(e['value']):.4g} [{lo:.4g}, {hi:.4g}]"

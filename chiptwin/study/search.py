@@ -1,0 +1,90 @@
+"""Which points to run: the whole grid, or a bisection on the one budget axis.
+
+Both work on "decisions" (``pass``/``fail``/``undecided`` per point, from
+:func:`chiptwin.study.stats.decide`) and share the monotonicity check and the answer rule.
+
+**The monotonicity assumption.** Along a budget axis (cheapest value first) a point that meets
+the requirement is assumed to be followed only by points that meet it too: more ADC bits, more
+memory or more DNA never make the chip worse. Bisection relies on it to skip points; both
+searches check it on every point they visited, and report a violation (a pass followed by a
+fail further along the axis, or a metric significantly worse at a costlier point), never hide
+it. A bisection also re-checks ``verify`` points between its answer and the costliest passing
+point; a violation found there moves the search above it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+UNDECIDED_IS_FAIL = "an undecided point (its interval straddles a threshold at the cap) counts " \
+                    "as not meeting the requirement"
+
+
+def bisect(n: int, decide: Callable[[int], str], verify: int = 1) -> dict[str, Any]:
+    """Bisection over indices ``0 … n-1`` of a monotone pass/fail axis.
+
+    Parameters
+    ----------
+    n : number of points on the axis, cheapest first
+    decide : ``index -> "pass" | "fail" | "undecided"`` (undecided counts as fail); called at
+        most once per index
+    verify : points above the answer re-checked for monotonicity
+
+    Returns
+    -------
+    dict with ``answer`` (index or None), ``visited`` ({index: decision}) and ``violations``
+    (list of ``{"pass_at", "fail_at"}`` index pairs).
+    """
+    visited: dict[int, str] = {}
+
+    def ok(i: int) -> bool:
+        if i not in visited:
+            visited[i] = decide(i)
+        return visited[i] == "pass"
+
+    if not ok(n - 1):
+        return {"answer": None, "visited": visited, "violations": violations(visited)}
+    lo, hi = -1, n - 1  # lo: highest known not-pass (or -1); hi: lowest known pass
+    if ok(0):
+        hi = 0
+    checks = verify
+    while True:
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if ok(mid):
+                hi = mid
+            else:
+                lo = mid
+        above = [i for i in visited if i > hi and visited[i] == "pass"]
+        if checks <= 0 or not above:
+            break
+        checks -= 1
+        probe = (hi + min(above)) // 2
+        if probe == hi or probe in visited:
+            probe = next((i for i in range(hi + 1, min(above)) if i not in visited), None)
+        if probe is None:
+            continue
+        if not ok(probe):  # a violation: the answer cannot be at or below it
+            lo, hi = probe, min(above)
+    return {"answer": hi, "visited": visited, "violations": violations(visited)}
+
+
+def violations(decisions: dict[int, str]) -> list[dict[str, int]]:
+    """Pairs (pass at i, not-pass at j > i) along one axis: each breaks monotonicity."""
+    out = []
+    order = sorted(i for i, d in decisions.items() if d in ("pass", "fail"))
+    for a, i in enumerate(order):
+        if decisions[i] != "pass":
+            continue
+        for j in order[a + 1:]:
+            if decisions[j] == "fail":
+                out.append({"pass_at": i, "fail_at": j})
+    return out
+
+
+def cheapest(costs: Sequence[tuple[int, ...]], decisions: Sequence[str]) -> int | None:
+    """Index of the passing point with the smallest cost (lexicographic: the first budget axis
+    is the most significant), or None."""
+    passing = [i for i, d in enumerate(decisions) if d == "pass"]
+    return min(passing, key=lambda i: costs[i]) if passing else None

@@ -1,0 +1,495 @@
+"""Study files: TOML → a validated :class:`Study`, with the strictness of scenario files.
+
+A study is a base scenario plus axes (which scenario keys vary, over which values), replicates,
+metrics and a requirement. Every error names the file, the key, the value and what is allowed
+(:class:`~chiptwin.config.ScenarioError`, exit code 2), before anything is run or written.
+
+Layout (``scenarios/studies/*.toml`` are worked examples)::
+
+    [study]
+    name = "adc_bits_pyro"          # output folder name
+    scenario = "pyro_1fmol"         # a bundled scenario, or a path (relative to this file)
+    seed = 1                        # root of every row's seed
+    replicates = 40                 # per point (the cap per point with search = "bisect")
+    vary_chip = false               # true: every replicate another chip (PRNU/DSNU redrawn)
+    reference = { "chip.adc.bits" = 20 }   # the ideal that losses are measured against
+    set = { "run.fidelity.photons" = "binned" }  # overrides applied to every point
+    search = "grid"                 # or "bisect" on the one budget axis
+
+    [[study.axis]]                  # axes in order of cost significance: the first is the budget
+    key = "chip.adc.bits"
+    range = [6, 14]
+    scale = "int"                   # "lin" / "log" (with n) or "int" (every integer)
+
+    [[study.axis]]
+    key = "assay.dna_fmol"
+    values = [1.0, 0.1]
+    given = true                    # a condition: one answer per value, not a budget
+
+    [[study.metric]]
+    name = "base_error_rate"
+
+    [study.requirement]
+    base_error_rate = "<= 1e-3"
+    confidence = 0.95
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import hashlib
+import itertools
+import json
+import math
+import re
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from chiptwin.config import Scenario, ScenarioError
+from chiptwin.config.load import apply_override, read_toml, scenario_from_dict
+from chiptwin.config.schema import ASSAY_COMMON_KEYS, ASSAY_KIND_KEYS
+from chiptwin.study.metrics import CATALOGUE, check_metric_applies
+
+#: Rows a study may hold: 10⁶ runs of the 0.1 s reference scene is ≈ 14 h on 2 cores, beyond
+#: any interactive use; more is refused before anything runs.
+MAX_ROWS = 1_000_000
+#: Points an axis may have (a grid multiplies them): more than anyone reads on a plot.
+MAX_AXIS_VALUES = 1000
+#: Replicates per point: 10⁴ resolves a rate of 3e-4 at 95 % (rule of three), enough for any
+#: per-read requirement of a sequencing chip; more is a different experiment.
+MAX_REPLICATES = 10_000
+SCALES = ("lin", "log", "int")
+SEARCHES = ("grid", "bisect")
+_REQ = re.compile(r"^\s*(<=|>=)\s*([-+0-9.eE]+|inf)\s*$")
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One varied scenario key and its values, cheapest first."""
+
+    key: str
+    values: tuple
+    given: bool = False
+    zip: bool = False
+
+
+@dataclass(frozen=True)
+class Requirement:
+    """``metric op threshold``: met when the metric's one-sided confidence bound is on the
+    allowed side (the upper bound for ``<=``, the lower bound for ``>=``)."""
+
+    metric: str
+    op: str
+    threshold: float
+
+    def __str__(self) -> str:
+        return f"{self.metric} {self.op} {self.threshold:g}"
+
+
+@dataclass(frozen=True)
+class Point:
+    """One combination of axis values: its identity, parameters and place in the cost order."""
+
+    id: str
+    params: dict[str, Any]
+    given: tuple  # the values of the given (condition) axes
+    cost: tuple[int, ...]  # indices along the budget axes, most significant first
+    reference: bool = False
+
+
+@dataclass(frozen=True)
+class Study:
+    """A validated study file."""
+
+    name: str
+    source: str
+    text: str
+    scenario_path: str
+    base_raw: dict[str, Any]
+    seed: int
+    replicates: int
+    axes: tuple[Axis, ...]
+    metrics: tuple[str, ...]
+    requirements: tuple[Requirement, ...] = ()
+    confidence: float = 0.95
+    vary_chip: bool = False
+    reference: dict[str, Any] = field(default_factory=dict)
+    overrides: dict[str, Any] = field(default_factory=dict)
+    search: str = "grid"
+    batch: int = 10
+    verify: int = 1
+    description: str = ""
+
+    @property
+    def budget_axes(self) -> tuple[Axis, ...]:
+        return tuple(a for a in self.axes if not a.given)
+
+    @property
+    def given_axes(self) -> tuple[Axis, ...]:
+        return tuple(a for a in self.axes if a.given)
+
+    @property
+    def hash(self) -> str:
+        """Identity of what the rows depend on: the study text and the resolved base scenario."""
+        blob = json.dumps([self.text, self.base_raw], sort_keys=True, default=str)
+        return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+    def points(self) -> list[Point]:
+        """Every point of the grid (zipped axes advance together), budget order inside each
+        given combination."""
+        return expand_points(self)
+
+    def reference_point(self, p: Point) -> Point | None:
+        """The point whose rows define the ideal for ``p`` (``p`` with the reference overrides)."""
+        if not self.reference:
+            return None
+        params = {**p.params, **self.reference}
+        return Point(point_id(params), params, p.given, (), reference=True)
+
+
+_STUDY_KEYS = {"name", "description", "scenario", "seed", "replicates", "vary_chip",
+               "reference", "set", "search", "batch", "verify", "axis", "metric", "requirement"}
+_AXIS_KEYS = {"key", "values", "range", "scale", "n", "given", "zip"}
+
+
+def load_study(path: str | Path, resolve_scenario=None) -> Study:
+    """Read and validate a study file.
+
+    Parameters
+    ----------
+    path : the TOML file
+    resolve_scenario : ``name -> Path`` for bundled scenario names (the CLI's resolver)
+
+    Raises
+    ------
+    ScenarioError
+        Naming the file, the key (``study.axis[1].range``), the value and what is allowed.
+    """
+    source = str(path)
+    raw = read_toml(path)
+    text = Path(path).read_text(encoding="utf-8")
+    return study_from_dict(raw, source, text, Path(path).parent, resolve_scenario)
+
+
+def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | None = None,
+                    folder: Path = Path("."), resolve_scenario=None) -> Study:
+    """Build a :class:`Study` from a parsed table (see :func:`load_study`)."""
+    err = _Errors(source)
+    for key in raw:
+        if key != "study":
+            err.fail(key, raw[key], _unknown(key, {"study"}))
+    st = raw.get("study")
+    if not isinstance(st, dict):
+        err.fail("[study]", st if st is not None else dataclasses.MISSING, "section is required")
+    for key in st:
+        if key not in _STUDY_KEYS:
+            err.fail(f"study.{key}", st[key], _unknown(key, _STUDY_KEYS))
+    name = err.string(st, "name", r"[A-Za-z0-9_.-]+", "letters, digits, '_', '-', '.' "
+                      "(it names the output folder)")
+    scen_path = _scenario_path(err, st, folder, resolve_scenario)
+    base_raw = read_toml(scen_path)
+    for k, v in _table(err, st, "set").items():
+        _check_key(err, "study.set", k, base_raw)
+        _put(base_raw, k, v, source)
+    seed = err.integer(st, "seed", 0, 2**63 - 1, "the root of np.random.SeedSequence")
+    replicates = err.integer(st, "replicates", 1, MAX_REPLICATES,
+                             "runs per point; the cap per point with bisect")
+    axes = tuple(_axis(err, i, a, base_raw) for i, a in enumerate(_list(err, st, "axis")))
+    if not axes:
+        err.fail("study.axis", dataclasses.MISSING, "at least one [[study.axis]] is required")
+    metrics = _metrics(err, st)
+    reference = _table(err, st, "reference")
+    for k in reference:
+        _check_key(err, "study.reference", k, base_raw)
+    requirements, confidence = _requirements(err, st, metrics, reference)
+    study = Study(
+        name=name, source=source, text=text if text is not None else json.dumps(raw),
+        scenario_path=str(scen_path), base_raw=base_raw, seed=seed, replicates=replicates,
+        axes=axes, metrics=metrics, requirements=requirements, confidence=confidence,
+        vary_chip=err.boolean(st, "vary_chip", False), reference=reference,
+        overrides=_table(err, st, "set"), search=err.choice(st, "search", SEARCHES, "grid"),
+        batch=err.integer(st, "batch", 1, MAX_REPLICATES, "replicates added per look (bisect)",
+                          default=10),
+        verify=err.integer(st, "verify", 0, 10, "points above a bisect answer re-checked",
+                           default=1),
+        description=st.get("description", ""),
+    )
+    _check_whole(err, study)
+    return study
+
+
+def _check_whole(err: _Errors, study: Study) -> None:
+    """Rules between fields: sizes, the bisect shape, metrics the base scenario can give."""
+    lengths = {len(a.values) for a in study.axes if a.zip}
+    if len(lengths) > 1:
+        err.fail("study.axis", [a.key for a in study.axes if a.zip],
+                 f"zipped axes must have the same number of values (have {sorted(lengths)})")
+    if study.search == "bisect":
+        budget = [a for a in study.budget_axes]
+        if len(budget) != 1 or budget[0].zip:
+            err.fail("study.search", "bisect", "bisects exactly one budget axis (mark the "
+                     "others given = true); have " + str([a.key for a in budget]))
+        if not study.requirements:
+            err.fail("study.search", "bisect", "needs a [study.requirement] to decide points")
+    n_points = len(expand_points(study)) + (len(expand_points(study)) if study.reference else 0)
+    rows = n_points * study.replicates
+    if rows > MAX_ROWS:
+        err.fail("study.replicates", study.replicates,
+                 f"{n_points} points × {study.replicates} replicates = {rows} rows; at most "
+                 f"{MAX_ROWS} (≈ 14 h on 2 cores at 0.1 s a run)")
+    if study.vary_chip and study.base_raw.get("chip", {}).get("fixed_pattern_seed", -1) >= 0:
+        err.fail("study.vary_chip", True, "the scenario pins chip.fixed_pattern_seed (one chip); "
+                 "remove it, or set vary_chip = false")
+    base = scenario_from_dict(json.loads(json.dumps(study.base_raw)), study.scenario_path)
+    for m in study.metrics:
+        problem = check_metric_applies(m, base, study)
+        if problem:
+            err.fail("study.metric", m, problem)
+
+
+def expand_points(study: Study) -> list[Point]:
+    """The grid: zipped axes form one compound axis at the place of the first of them."""
+    groups: list[list[Axis]] = []
+    for a in study.axes:
+        if a.zip and groups and groups[-1][0].zip:
+            groups[-1].append(a)
+        elif a.zip and any(g[0].zip for g in groups):
+            next(g for g in groups if g[0].zip).append(a)
+        else:
+            groups.append([a])
+    ranges = [range(len(g[0].values)) for g in groups]
+    points = []
+    for idx in itertools.product(*ranges):
+        params: dict[str, Any] = {}
+        given: list = []
+        cost: list[int] = []
+        for g, i in zip(groups, idx, strict=True):
+            for a in g:
+                params[a.key] = a.values[i]
+            if g[0].given:
+                given.extend(a.values[i] for a in g)
+            else:
+                cost.append(i)
+        points.append(Point(point_id(params), params, tuple(given), tuple(cost)))
+    return points
+
+
+def point_id(params: dict[str, Any]) -> str:
+    """A point's identity: the hash of its parameters (order-free), 16 hex digits."""
+    blob = json.dumps(params, sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def point_scenario(study: Study, params: dict[str, Any], seed: int,
+                   fixed_pattern_seed: int | None) -> Scenario:
+    """The validated scenario of one point and seed (raises ScenarioError when inconsistent)."""
+    raw = json.loads(json.dumps(study.base_raw))  # a deep copy of plain TOML data
+    for key, value in params.items():
+        _put(raw, key, value, study.source)
+    raw.setdefault("scenario", {})["seed"] = seed
+    if fixed_pattern_seed is not None:
+        raw.setdefault("chip", {})["fixed_pattern_seed"] = fixed_pattern_seed
+    label = ", ".join(f"{k}={v}" for k, v in params.items())
+    return scenario_from_dict(raw, f"{study.scenario_path} [{label}]")
+
+
+def _put(raw: dict[str, Any], key: str, value: Any, source: str) -> None:
+    apply_override(raw, f"{key}={json.dumps(value)}", source)
+
+
+# ---------------------------------------------------------------- field readers
+
+
+class _Errors:
+    """Reads fields of ``[study]`` and raises ScenarioError naming this file."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+
+    def fail(self, key: str, value: Any, allowed: str) -> typing.NoReturn:
+        raise ScenarioError(self.source, key, value, allowed)
+
+    def string(self, t: dict, key: str, pattern: str, allowed: str) -> str:
+        v = t.get(key, dataclasses.MISSING)
+        if not isinstance(v, str) or not re.fullmatch(pattern, v) or v in (".", ".."):
+            self.fail(f"study.{key}", v, f"must be {allowed}")
+        return v
+
+    def integer(self, t: dict, key: str, lo: int, hi: int, why: str, default=None) -> int:
+        v = t.get(key, dataclasses.MISSING if default is None else default)
+        if type(v) is not int or not lo <= v <= hi:
+            self.fail(f"study.{key}", v, f"must be an integer in [{lo}, {hi}] ({why})")
+        return v
+
+    def boolean(self, t: dict, key: str, default: bool) -> bool:
+        v = t.get(key, default)
+        if not isinstance(v, bool):
+            self.fail(f"study.{key}", v, "must be true or false")
+        return v
+
+    def choice(self, t: dict, key: str, choices: tuple, default: str) -> str:
+        v = t.get(key, default)
+        if v not in choices:
+            self.fail(f"study.{key}", v, "must be one of " + ", ".join(map(repr, choices)))
+        return v
+
+
+def _unknown(key: str, allowed: set[str]) -> str:
+    close = difflib.get_close_matches(key, sorted(allowed), n=1, cutoff=0.6)
+    hint = f"did you mean {close[0]!r}? " if close else ""
+    return f"unknown key; {hint}allowed: {', '.join(sorted(allowed))}"
+
+
+def _table(err: _Errors, st: dict, key: str) -> dict[str, Any]:
+    """An inline table of scenario keys; ``{ chip.adc.bits = 20 }`` (nested by TOML) and
+    ``{ "chip.adc.bits" = 20 }`` (one dotted key) read the same."""
+    v = st.get(key, {})
+    if not isinstance(v, dict):
+        err.fail(f"study.{key}", v, 'must be an inline table of "section.key" = value')
+    flat: dict[str, Any] = {}
+
+    def walk(t: dict, prefix: str) -> None:
+        for k, x in t.items():
+            if isinstance(x, dict):
+                walk(x, f"{prefix}{k}.")
+            else:
+                flat[prefix + k] = x
+
+    walk(v, "")
+    return flat
+
+
+def _list(err: _Errors, st: dict, key: str) -> list[dict]:
+    v = st.get(key, [])
+    if not isinstance(v, list) or not all(isinstance(x, dict) for x in v):
+        err.fail(f"study.{key}", v, f"must be [[study.{key}]] tables")
+    return v
+
+
+def _scenario_path(err: _Errors, st: dict, folder: Path, resolve) -> Path:
+    v = st.get("scenario", dataclasses.MISSING)
+    if not isinstance(v, str) or not v:
+        err.fail("study.scenario", v, "must be a bundled scenario name or a path to a TOML file")
+    for candidate in (folder / v, Path(v)):
+        if candidate.is_file():
+            return candidate
+    found = resolve(v) if resolve else None
+    if found is not None and Path(found).is_file():
+        return Path(found)
+    err.fail("study.scenario", v, f"no such file (looked in {folder} and the working folder) "
+             "and no bundled scenario of that name; `chiptwin list` shows them")
+
+
+def _check_key(err: _Errors, where: str, key: str, base_raw: dict) -> None:
+    """``key`` must name a scenario field (``chip.adc.bits``), and an assay key of the base
+    scenario's kind."""
+    cls: Any = Scenario
+    parts = key.split(".")
+    for i, part in enumerate(parts):
+        hints = typing.get_type_hints(cls) if dataclasses.is_dataclass(cls) else {}
+        names = {f.name for f in dataclasses.fields(cls)} - {"source"} if hints else set()
+        if part not in names:
+            prefix = ".".join(parts[:i]) or "(top)"
+            err.fail(where, key, f"{part!r} is not a key of {prefix}; " + _unknown(part, names))
+        cls = hints[part]
+    if dataclasses.is_dataclass(cls):
+        err.fail(where, key, "names a section; name one of its keys")
+    if parts[0] == "assay" and len(parts) == 2:
+        kind = base_raw.get("assay", {}).get("kind")
+        allowed = ASSAY_KIND_KEYS.get(kind, frozenset()) | ASSAY_COMMON_KEYS
+        if parts[1] not in allowed:
+            err.fail(where, key, f"not used by the scenario's assay kind {kind!r}; its keys: "
+                     + ", ".join(sorted(allowed)))
+
+
+def _axis(err: _Errors, i: int, a: dict, base_raw: dict) -> Axis:
+    where = f"study.axis[{i}]"
+    for k in a:
+        if k not in _AXIS_KEYS:
+            err.fail(f"{where}.{k}", a[k], _unknown(k, _AXIS_KEYS))
+    key = a.get("key", dataclasses.MISSING)
+    if not isinstance(key, str):
+        err.fail(f"{where}.key", key, 'must be a scenario key, e.g. "chip.adc.bits"')
+    _check_key(err, f"{where}.key", key, base_raw)
+    if ("values" in a) == ("range" in a):
+        err.fail(where, key, "needs exactly one of values = [...] or range = [lo, hi] + scale")
+    values = _axis_values(err, where, a) if "range" in a else a["values"]
+    if not isinstance(values, list) or not values or len(values) > MAX_AXIS_VALUES:
+        err.fail(f"{where}.values", values, f"must be a list of 1 to {MAX_AXIS_VALUES} values")
+    if len({json.dumps(v, sort_keys=True) for v in values}) != len(values):
+        err.fail(f"{where}.values", values, "must not repeat a value")
+    for flag in ("given", "zip"):
+        if not isinstance(a.get(flag, False), bool):
+            err.fail(f"{where}.{flag}", a[flag], "must be true or false")
+    return Axis(key, tuple(values), a.get("given", False), a.get("zip", False))
+
+
+def _axis_values(err: _Errors, where: str, a: dict) -> list:
+    r, scale = a["range"], a.get("scale", dataclasses.MISSING)
+    ok = (isinstance(r, list) and len(r) == 2 and all(
+        isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x) for x in r)
+        and r[0] < r[1])
+    if not ok:
+        err.fail(f"{where}.range", r, "must be [lo, hi], two finite numbers with lo < hi")
+    if scale not in SCALES:
+        err.fail(f"{where}.scale", scale, "must be one of 'lin', 'log' (with n) or 'int'")
+    lo, hi = r
+    if scale == "int":
+        if any(type(x) is not int for x in r) or hi - lo >= MAX_AXIS_VALUES:
+            err.fail(f"{where}.range", r, f"scale 'int' needs two integers less than "
+                     f"{MAX_AXIS_VALUES} apart")
+        return list(range(lo, hi + 1))
+    n = a.get("n", dataclasses.MISSING)
+    if type(n) is not int or not 2 <= n <= MAX_AXIS_VALUES:
+        err.fail(f"{where}.n", n, f"must be an integer in [2, {MAX_AXIS_VALUES}] with scale "
+                 f"{scale!r}: the number of values from lo to hi")
+    if scale == "log":
+        if lo <= 0:
+            err.fail(f"{where}.range", r, "scale 'log' needs lo > 0")
+        step = (math.log10(hi) - math.log10(lo)) / (n - 1)
+        return [float(f"{10 ** (math.log10(lo) + i * step):.6g}") for i in range(n)]
+    return [float(f"{lo + i * (hi - lo) / (n - 1):.10g}") for i in range(n)]
+
+
+def _metrics(err: _Errors, st: dict) -> tuple[str, ...]:
+    names = []
+    for i, m in enumerate(_list(err, st, "metric")):
+        for k in m:
+            if k != "name":
+                err.fail(f"study.metric[{i}].{k}", m[k], _unknown(k, {"name"}))
+        name = m.get("name", dataclasses.MISSING)
+        if name not in CATALOGUE:
+            err.fail(f"study.metric[{i}].name", name, _unknown(str(name), set(CATALOGUE))
+                     .replace("unknown key", "unknown metric"))
+        if name in names:
+            err.fail(f"study.metric[{i}].name", name, "is listed twice")
+        names.append(name)
+    if not names:
+        err.fail("study.metric", dataclasses.MISSING, "at least one [[study.metric]] is required")
+    return tuple(names)
+
+
+def _requirements(err: _Errors, st: dict, metrics: tuple[str, ...], reference: dict
+                  ) -> tuple[tuple[Requirement, ...], float]:
+    req = _table(err, st, "requirement")
+    confidence = req.pop("confidence", 0.95)
+    if not isinstance(confidence, float) or not 0.5 <= confidence <= 0.9999:
+        err.fail("study.requirement.confidence", confidence,
+                 "must be a number in [0.5, 0.9999] (the one-sided level of every bound)")
+    out = []
+    for name, text in req.items():
+        if name not in metrics:
+            err.fail(f"study.requirement.{name}", text,
+                     "is not a computed metric; add it as [[study.metric]] (computed: "
+                     + ", ".join(metrics) + ")")
+        m = _REQ.match(text) if isinstance(text, str) else None
+        if not m:
+            err.fail(f"study.requirement.{name}", text, 'must be a string "<= x" or ">= x"')
+        out.append(Requirement(name, m.group(1), float(m.group(2))))
+    if "snr_loss_db" in metrics and not reference:
+        err.fail("study.metric", "snr_loss_db", "is measured against the ideal: set "
+                 'study.reference, e.g. { "chip.adc.bits" = 20 }')
+    return tuple(out), confidence

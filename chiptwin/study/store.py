@@ -1,0 +1,124 @@
+"""The study's database: ``OUT/results.sqlite`` (stdlib sqlite3, WAL, one transaction per row).
+
+Tables:
+
+- ``study``: one row: the study file's text, its hash (with the resolved base scenario), the
+  resolved base scenario as JSON, the chiptwin version, and the time it was created.
+- ``runs``: one row per finished run: ``point`` (the point's hash), ``kind`` (``point`` or
+  ``reference``), ``replicate``, ``seed``, ``params`` JSON, ``metrics`` JSON, ``status``
+  (``ok``/``invalid``/``error``), ``message``, ``wall_s``. ``(point, replicate)`` is the key.
+
+A row is committed as soon as it arrives, so a killed study (Ctrl-C, ``kill -9``) loses only the
+rows in flight; re-running the same command skips every stored row. A study whose file or base
+scenario changed is refused for resumption, naming what changed.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+import time
+from pathlib import Path
+from typing import Any
+
+from chiptwin import __version__
+from chiptwin.config import ScenarioError
+
+DB_NAME = "results.sqlite"
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS study (
+    id INTEGER PRIMARY KEY CHECK (id = 1),
+    name TEXT NOT NULL, text TEXT NOT NULL, hash TEXT NOT NULL,
+    base_scenario TEXT NOT NULL, chiptwin_version TEXT NOT NULL, created REAL NOT NULL);
+CREATE TABLE IF NOT EXISTS runs (
+    point TEXT NOT NULL, kind TEXT NOT NULL, replicate INTEGER NOT NULL, seed INTEGER NOT NULL,
+    params TEXT NOT NULL, metrics TEXT, status TEXT NOT NULL
+        CHECK (status IN ('ok', 'invalid', 'error')),
+    message TEXT NOT NULL, wall_s REAL NOT NULL,
+    PRIMARY KEY (point, replicate));
+"""
+
+
+class Store:
+    """The runs of one study, in SQLite (``":memory:"`` for a study without an output folder)."""
+
+    def __init__(self, path: str | Path, study: Any, fresh: bool = False) -> None:
+        self.path = str(path)
+        if fresh and self.path != ":memory:":
+            for suffix in ("", "-wal", "-shm"):
+                Path(self.path + suffix).unlink(missing_ok=True)
+        self.db = sqlite3.connect(self.path, isolation_level=None)  # explicit transactions
+        if self.path != ":memory:":
+            self.db.execute("PRAGMA journal_mode=WAL")
+            self.db.execute("PRAGMA synchronous=NORMAL")  # WAL: durable at checkpoints, atomic
+        self.db.executescript(_SCHEMA)
+        self._claim(study)
+
+    def _claim(self, study: Any) -> None:
+        row = self.db.execute("SELECT text, hash, base_scenario FROM study").fetchone()
+        base = json.dumps(study.base_raw, sort_keys=True)
+        if row is None:
+            self.db.execute("INSERT INTO study VALUES (1, ?, ?, ?, ?, ?, ?)",
+                            (study.name, study.text, study.hash, base, __version__, time.time()))
+            return
+        if row[1] != study.hash:
+            raise ScenarioError(study.source, "(resume)", self.path,
+                                "this folder holds another version of the study: "
+                                + describe_change(row[0], row[2], study.text, base)
+                                + "; use --fresh to start over, or another --out")
+
+    def done(self) -> set[tuple[str, int]]:
+        """``(point, replicate)`` of every stored row."""
+        return set(self.db.execute("SELECT point, replicate FROM runs"))
+
+    def add(self, row: dict[str, Any]) -> None:
+        """Store one finished row in its own transaction."""
+        self.db.execute(
+            "INSERT OR IGNORE INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            (row["point"], row["kind"], row["replicate"], row["seed"],
+             json.dumps(row["params"], sort_keys=True),
+             None if row["metrics"] is None else json.dumps(row["metrics"], sort_keys=True),
+             row["status"], row["message"], row["wall_s"]))
+
+    def rows(self) -> list[dict[str, Any]]:
+        """Every stored row, ordered by point and replicate."""
+        cur = self.db.execute("SELECT point, kind, replicate, seed, params, metrics, status, "
+                              "message, wall_s FROM runs ORDER BY point, replicate")
+        names = [d[0] for d in cur.description]
+        out = []
+        for values in cur:
+            row = dict(zip(names, values, strict=True))
+            row["params"] = json.loads(row["params"])
+            row["metrics"] = None if row["metrics"] is None else json.loads(row["metrics"])
+            out.append(row)
+        return out
+
+    def close(self) -> None:
+        self.db.close()
+
+
+def describe_change(old_text: str, old_base: str, new_text: str, new_base: str) -> str:
+    """What differs between the stored study and this one, in a few words."""
+    import tomllib
+
+    def flat(d: Any, prefix: str = "") -> dict[str, Any]:
+        if isinstance(d, dict):
+            out: dict[str, Any] = {}
+            for k, v in d.items():
+                out.update(flat(v, f"{prefix}{k}."))
+            return out
+        return {prefix.rstrip("."): d}
+
+    changes = []
+    try:
+        a, b = flat(tomllib.loads(old_text)), flat(tomllib.loads(new_text))
+        changes += [f"study {k}: {a.get(k)!r} → {b.get(k)!r}" for k in sorted(a.keys() | b.keys())
+                    if a.get(k) != b.get(k)]
+    except tomllib.TOMLDecodeError:
+        changes.append("the study text")
+    a, b = flat(json.loads(old_base)), flat(json.loads(new_base))
+    changes += [f"scenario {k}: {a.get(k)!r} → {b.get(k)!r}" for k in sorted(a.keys() | b.keys())
+                if a.get(k) != b.get(k)]
+    shown = "; ".join(changes[:4]) + (f"; and {len(changes) - 4} more" if len(changes) > 4 else "")
+    return shown or "its text (comments or layout)"
