@@ -113,10 +113,6 @@ class _Plan:
             except ScenarioError as exc:
                 self.invalid[p.id] = str(exc)
         self.by_id = {p.id: p for p in [*self.points, *self.references.values()]}
-        bad = [self.invalid[r] for r in self.reference_of.values() if r in self.invalid]
-        if bad:  # every loss is measured against it: a broken reference is a bad study
-            raise ScenarioError(study.source, "study.reference", study.reference,
-                                f"gives an inconsistent scenario: {bad[0]}")
 
     def tasks(self, point_id: str, replicates: range) -> list[RowTask]:
         p = self.by_id[point_id]
@@ -138,8 +134,9 @@ class _Runner:
 
     def ensure(self, wanted: list[tuple[str, int]]) -> None:
         """Run every ``(point, replicates)`` row not stored yet."""
-        tasks = [t for pid, n in wanted for t in self.plan.tasks(pid, range(n))
-                 if (t.point, t.replicate) not in self.rows]
+        tasks = list({(t.point, t.replicate): t for pid, n in wanted
+                      for t in self.plan.tasks(pid, range(n))
+                      if (t.point, t.replicate) not in self.rows}.values())
         self.total = max(self.total, len(self.rows) + len(tasks))
         for row in self.executor.run(tasks):
             self.store.add(row)

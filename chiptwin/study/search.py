@@ -56,17 +56,15 @@ def bisect(n: int, decide: Callable[[int], str], verify: int = 1) -> dict[str, A
                 hi = mid
             else:
                 lo = mid
-        above = [i for i in visited if i > hi and visited[i] == "pass"]
-        if checks <= 0 or not above:
+        top = max(i for i, d in visited.items() if d == "pass")
+        unvisited = [i for i in range(hi + 1, top) if i not in visited]
+        if checks <= 0 or not unvisited:
             break
         checks -= 1
-        probe = (hi + min(above)) // 2
-        if probe == hi or probe in visited:
-            probe = next((i for i in range(hi + 1, min(above)) if i not in visited), None)
-        if probe is None:
-            continue
+        probe = min(unvisited, key=lambda i: abs(i - (hi + top) // 2))  # halfway to the top
         if not ok(probe):  # a violation: the answer cannot be at or below it
-            lo, hi = probe, min(above)
+            lo = probe
+            hi = min(i for i, d in visited.items() if i > probe and d == "pass")
     return {"answer": hi, "visited": visited, "violations": violations(visited)}
 
 

@@ -244,6 +244,12 @@ def _check_whole(err: _Errors, study: Study) -> None:
         err.fail("study.vary_chip", True, "the scenario pins chip.fixed_pattern_seed (one chip); "
                  "remove it, or set vary_chip = false")
     base = scenario_from_dict(json.loads(json.dumps(study.base_raw)), study.scenario_path)
+    refs = {p.id: p for p in map(study.reference_point, expand_points(study)) if p}
+    for ref in refs.values():  # every loss is measured against it: it must be a valid scene
+        try:
+            point_scenario(study, ref.params, study.seed, None)
+        except ScenarioError as exc:
+            err.fail("study.reference", study.reference, f"gives an inconsistent scenario: {exc}")
     for m in study.metrics:
         problem = check_metric_applies(m, base, study)
         if problem:

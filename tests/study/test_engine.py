@@ -1,0 +1,133 @@
+"""The engine: rows equal run() for their seed; serial, pool and Dask give identical tables; a
+killed study resumes to the same tables; a changed study is refused for resumption."""
+
+from __future__ import annotations
+
+import json
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from dataclasses import replace
+
+import pytest
+
+from chiptwin.cli import main, resolve_scenario
+from chiptwin.config import ScenarioError
+from chiptwin.run import run
+from chiptwin.study import load_study, run_study
+from chiptwin.study.metrics import measure, row_metrics
+from chiptwin.study.rows import chip_seed
+from chiptwin.study.spec import point_scenario
+from tests.study.conftest import STUDY, comparable, write_study
+
+
+def test_a_row_is_run_with_its_seed(small_study):
+    """Sharing per-point work changes nothing: each row's metrics equal those of a plain run()
+    of the point with the row's seed and the study's chip."""
+    study = load_study(small_study, resolve_scenario)
+    result = run_study(study, workers=1)
+    for row in [r for r in result.table if r["kind"] == "point"][:4]:
+        s = point_scenario(study, row["params"], study.seed, chip_seed(study.seed))
+        plain = run(replace(s, scenario=replace(s.scenario, seed=row["seed"])))
+        assert measure(plain, row_metrics(study.metrics)) == row["metrics"]
+
+
+def test_rows_differ_between_replicates_and_vary_chip_redraws_the_chip(tmp_path):
+    one = run_study(write_study(tmp_path, STUDY), workers=1).table
+    seeds = {r["seed"] for r in one}
+    assert len(seeds) == len(one)  # every (point, replicate) its own seed
+    varied = run_study(write_study(tmp_path, STUDY.replace("seed = 11", "seed = 11\n"
+                                                           "vary_chip = true")), workers=1).table
+    same_seed = {r["seed"]: r["metrics"] for r in one}
+    assert any(same_seed[r["seed"]] != r["metrics"] for r in varied if r["seed"] in same_seed)
+
+
+def test_serial_pool_and_dask_give_identical_tables(small_study):
+    pytest.importorskip("distributed", reason="the [dask] extra is in the test dependencies")
+    serial = run_study(small_study, workers=1)
+    pool = run_study(small_study, workers=2)
+    dask = run_study(small_study, workers=2, scheduler="local")
+    assert comparable(serial.table) == comparable(pool.table) == comparable(dask.table)
+    assert serial.answer == pool.answer == dask.answer
+    assert dask.summary["executor"]["kind"] == "dask"
+
+
+def test_answer_statistics_and_outputs(small_study, tmp_path):
+    out = tmp_path / "out"
+    assert main(["study", str(small_study), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    summary = json.loads((out / "study.json").read_text())
+    assert {"answer", "points", "requirement", "runs", "wall_time_s", "chiptwin_version"} <= set(
+        summary)
+    for p in summary["points"]:
+        e = p["metrics"]["base_error_rate"]
+        assert e["method"] == "Clopper-Pearson exact" and e["n"] == 3 and e["upper"] > 0
+        assert "snr_loss_db" in p["metrics"] and p["metrics"]["snr_loss_db"]["n"] == 3
+    answer = summary["answer"][0]
+    if answer["point"] is not None:  # the cheapest passing point, nothing cheaper passes
+        cheaper = [p for p in summary["points"]
+                   if p["params"]["chip.adc.bits"] < answer["point"]["chip.adc.bits"]]
+        assert all(p["status"] != "pass" for p in cheaper)
+    lines = (out / "results.csv").read_text().splitlines()
+    assert len(lines) == 1 + summary["runs"]["total"]
+    assert "base_error_rate_k" in lines[0]
+    assert "![" in (out / "report.md").read_text()
+    assert list(out.glob("*.png"))
+
+
+def test_killed_study_resumes_to_the_same_tables(tmp_path):
+    """SIGKILL mid-study, then the same command: same rows as an uninterrupted run, no
+    duplicate (point, replicate), finished rows not recomputed."""
+    path = write_study(tmp_path, STUDY.replace("replicates = 3", "replicates = 8"))
+    whole = run_study(path, workers=1)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "chiptwin", "study", str(path), "--out", str(out),
+           "--workers", "1", "--quiet"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    db = out / "results.sqlite"
+    deadline = time.monotonic() + 120
+    stored = 0
+    while time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.2)
+        if db.exists():
+            try:
+                stored = sqlite3.connect(db).execute("SELECT count(*) FROM runs").fetchone()[0]
+            except sqlite3.OperationalError:
+                continue
+            if stored >= 5:
+                break
+    assert proc.poll() is None, "the study finished before it could be killed"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert not (out / "study.json").exists()  # not complete, and does not look it
+    resumed = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+    con = sqlite3.connect(out / "results.sqlite")
+    rows = con.execute("SELECT point, replicate FROM runs").fetchall()
+    assert len(rows) == len(set(rows)) == len(whole.table)
+    summary = json.loads((out / "study.json").read_text())
+    assert summary["runs"]["resumed"] >= stored and summary["runs"]["computed"] == len(
+        whole.table) - summary["runs"]["resumed"]
+    from chiptwin.study.store import Store
+
+    again = Store(out / "results.sqlite", load_study(path, resolve_scenario)).rows()
+    assert comparable(again) == comparable(whole.table)
+
+
+def test_changed_study_is_refused_for_resumption(small_study, tmp_path):
+    out = tmp_path / "out"
+    assert main(["study", str(small_study), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    small_study.write_text(STUDY.replace("replicates = 3", "replicates = 4"))
+    with pytest.raises(ScenarioError, match=r"replicates: 3 → 4.*--fresh"):
+        run_study(small_study, workers=1, db=out / "results.sqlite")
+    assert main(["study", str(small_study), "--out", str(out), "--workers", "1", "--quiet",
+                 "--fresh"]) == 0
+
+
+def test_study_refuses_a_folder_that_is_not_a_chiptwin_output(small_study, tmp_path, capsys):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("keep me")
+    assert main(["study", str(small_study), "--out", str(out), "--quiet"]) == 2
+    assert (out / "notes.txt").read_text() == "keep me" and len(list(out.iterdir())) == 1
