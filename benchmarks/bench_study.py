@@ -1,0 +1,113 @@
+"""A study against a plain loop of run() over the same rows, and bisect against the grid.
+
+    python benchmarks/bench_study.py [--points 10] [--replicates 100] [--loop-rows 100]
+
+1. A ``pyro_1fmol`` study (binned photons, float DSP): ``--points`` DNA amounts × ``--replicates``,
+   run with 1 and with 2 workers (the scaling), against a plain loop of ``run()`` over the first
+   ``--loop-rows`` of the same rows in this process (its per-run time × rows / 2 cores is the
+   loop's 2-core time; run fewer loop rows to keep the script short, the figure says how many).
+2. The store's overhead: inserting the study's rows into a fresh SQLite file, one transaction
+   each, against the rows' own run time.
+3. ``lod_pyro``: runs and wall time of its bisection against the same axis as a grid at the same
+   cap (the grid's runs are counted exactly; its time is runs × the bisection's time per run).
+
+Numbers only; nothing is asserted (speed never lives in the tests).
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+from chiptwin.cli import bundled_studies, resolve_scenario
+from chiptwin.run import run
+from chiptwin.study import load_study, run_study
+from chiptwin.study.rows import chip_seed
+from chiptwin.study.spec import point_scenario
+from chiptwin.study.store import Store
+
+STUDY = """
+[study]
+name = "bench"
+scenario = "pyro_1fmol"
+seed = 5
+replicates = {replicates}
+
+[[study.axis]]
+key = "assay.dna_fmol"
+range = [0.1, 1.0]
+scale = "log"
+n = {points}
+
+[[study.metric]]
+name = "calls_correct"
+
+[[study.metric]]
+name = "snr_power"
+"""
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--points", type=int, default=10)
+    ap.add_argument("--replicates", type=int, default=100)
+    ap.add_argument("--loop-rows", type=int, default=100)
+    ap.add_argument("--skip-lod", action="store_true")
+    args = ap.parse_args()
+    folder = Path(tempfile.mkdtemp())
+    path = folder / "bench.toml"
+    path.write_text(STUDY.format(points=args.points, replicates=args.replicates))
+    study = load_study(path, resolve_scenario)
+    rows = args.points * args.replicates
+
+    run_study(replace(study, replicates=2), workers=1)  # JIT caches warm
+    timed = {}
+    for workers in (1, 2):
+        t0 = time.perf_counter()
+        result = run_study(study, workers=workers)
+        timed[workers] = time.perf_counter() - t0
+    row_time = sum(r["wall_s"] for r in result.table)
+
+    loop = [r for r in result.table][: args.loop_rows]
+    t0 = time.perf_counter()
+    for r in loop:
+        s = point_scenario(study, r["params"], study.seed, chip_seed(study.seed))
+        run(replace(s, scenario=replace(s.scenario, seed=r["seed"])))
+    per_run = (time.perf_counter() - t0) / len(loop)
+
+    t0 = time.perf_counter()
+    store = Store(folder / "results.sqlite", study)
+    for r in result.table:
+        store.add(r)
+    store.close()
+    store_s = time.perf_counter() - t0
+
+    print(f"study: {rows} runs of pyro_1fmol ({args.points} points × {args.replicates})")
+    print(f"  1 worker  {timed[1]:7.1f} s  {rows / timed[1]:6.1f} runs/s")
+    print(f"  2 workers {timed[2]:7.1f} s  {rows / timed[2]:6.1f} runs/s  "
+          f"(scaling {timed[1] / timed[2]:.2f}×)")
+    print(f"plain run() loop: {per_run:.3f} s per run over {len(loop)} rows; {rows} rows on 2 "
+          f"cores ≈ {per_run * rows / 2:.1f} s → the study is {per_run * rows / 2 / timed[2]:.2f}× "
+          "faster")
+    print(f"  per row inside the study: {row_time / rows:.3f} s (shared per-point work: "
+          f"{per_run / (row_time / rows):.2f}× less per run)")
+    print(f"store: {store_s:.3f} s for {rows} rows = {100 * store_s / row_time:.2f} % of the "
+          "rows' run time")
+
+    if not args.skip_lod:
+        lod = load_study(bundled_studies()["lod_pyro"], resolve_scenario)
+        t0 = time.perf_counter()
+        res = run_study(lod, workers=2)
+        wall = time.perf_counter() - t0
+        grid_runs = len(lod.points()) * lod.replicates
+        n = res.summary["runs"]["total"]
+        print(f"lod_pyro bisect: {n} runs, {wall:.1f} s; answer {res.answer[0]['point']}")
+        print(f"  as a grid: {grid_runs} runs ≈ {wall * grid_runs / n:.0f} s "
+              f"({grid_runs / n:.1f}× the bisection)")
+
+
+if __name__ == "__main__":
+    main()
