@@ -64,9 +64,14 @@ def answer_lines(summary: dict[str, Any]) -> list[str]:
         given = ", ".join(f"{k} = {v}" for k, v in a["given"].items())
         lines.append((f"[{given}] " if given else "") + a["statement"])
     v = summary["monotonicity"]["violations"]
-    if v:
-        lines.append(f"MONOTONICITY VIOLATED at {len(v)} place(s): see study.json "
-                     "monotonicity.violations; the answer skips passing points below a failure")
+    decisions = [x for x in v if x["kind"] == "decision"]
+    if decisions:
+        lines.append(f"MONOTONICITY VIOLATED: {len(decisions)} passing point(s) followed by a "
+                     "failing one along a budget axis; the answer skips passing points below a "
+                     "failure (study.json monotonicity.violations)")
+    if len(v) > len(decisions):
+        lines.append(f"monotonicity: {len(v) - len(decisions)} metric(s) significantly worse at "
+                     "a costlier point (disjoint intervals; study.json monotonicity.violations)")
     return lines
 
 
