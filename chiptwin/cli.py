@@ -136,6 +136,8 @@ def _dispatch(args: argparse.Namespace) -> int:
         return 0
     if args.command == "study":
         return _study(args)
+    if args.command == "validate" and _is_study(args.scenario):
+        return _validate_study(resolve_study(args.scenario))
     path = resolve_scenario(args.scenario)
     scenario = load_scenario(path, args.set, args.seed)
     if args.command == "validate":
@@ -178,6 +180,34 @@ def _dsp_report(scenario, json_path: str | None) -> int:
     print(f"all bounds met: {report['all_bounds_ok']}")
     if json_path:
         Path(json_path).write_text(json.dumps(report, indent=2) + "\n")
+    return 0
+
+
+def _is_study(name: str) -> bool:
+    path = resolve_study(name)
+    if name in bundled_studies():
+        return True
+    try:
+        import tomllib
+
+        return path.is_file() and "study" in tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):
+        return False  # the scenario loader reports it
+
+
+def _validate_study(path: Path) -> int:
+    """Every point checked, as ``chiptwin study`` does before its first run."""
+    from chiptwin.study import load_study
+    from chiptwin.study.engine import plan_study
+
+    plan = plan_study(load_study(path, resolve_scenario))
+    n, bad = len(plan.points), len(plan.invalid)
+    print(f"{path}: ok ({plan.study.name}: {n} points × {plan.study.replicates} replicates, "
+          f"{len(plan.references)} reference point(s), search {plan.study.search})")
+    for pid, message in plan.invalid.items():
+        print(f"  invalid point {plan.by_id[pid].params}: {message}")
+    if bad:
+        print(f"  {bad} of {n} points are inconsistent; they will be recorded as invalid")
     return 0
 
 

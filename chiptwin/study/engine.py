@@ -70,7 +70,7 @@ def run_study(study: Study | str | Path, workers: int | None = None,
         from chiptwin.cli import resolve_scenario
 
         study = load_study(study, resolve_scenario)
-    plan = _Plan(study)  # validates every point before anything runs
+    plan = Plan(study)  # validates every point before anything runs
     store = Store(db, study, fresh=fresh)
     try:
         resumed = len(store.done())
@@ -90,7 +90,12 @@ def run_study(study: Study | str | Path, workers: int | None = None,
     return StudyResult(study, table, summary["answer"], summary)
 
 
-class _Plan:
+def plan_study(study: Study) -> Plan:
+    """Every point of ``study`` validated (an inconsistent one is kept as invalid)."""
+    return Plan(study)
+
+
+class Plan:
     """The study's points, their validated scenarios, and their reference points."""
 
     def __init__(self, study: Study) -> None:
@@ -125,7 +130,7 @@ class _Plan:
 class _Runner:
     """Runs missing rows through the executor into the store; keeps the rows in memory."""
 
-    def __init__(self, plan: _Plan, store: Store, executor, progress: Progress | None) -> None:
+    def __init__(self, plan: Plan, store: Store, executor, progress: Progress | None) -> None:
         self.plan, self.store, self.executor, self.progress = plan, store, executor, progress
         self.rows: dict[tuple[str, int], dict] = {(r["point"], r["replicate"]): r
                                                   for r in store.rows()}
@@ -190,7 +195,7 @@ def _given_groups(points: list[Point]) -> list[list[Point]]:
     return [sorted(g, key=lambda p: p.cost) for g in groups.values()]
 
 
-def point_estimates(plan: _Plan, rows: list[dict], ref_rows: list[dict], confidence: float
+def point_estimates(plan: Plan, rows: list[dict], ref_rows: list[dict], confidence: float
                     ) -> dict[str, Estimate]:
     """Every metric of a point from its ``ok`` rows."""
     ok = [r["metrics"] for r in rows if r["status"] == "ok"]
@@ -213,7 +218,7 @@ def point_estimates(plan: _Plan, rows: list[dict], ref_rows: list[dict], confide
     return out
 
 
-def point_status(plan: _Plan, p: Point, rows: list[dict], ref_rows: list[dict],
+def point_status(plan: Plan, p: Point, rows: list[dict], ref_rows: list[dict],
                  confidence: float) -> dict[str, Any]:
     """Estimates, one decision per requirement, and the point's status."""
     est = point_estimates(plan, rows, ref_rows, confidence)
@@ -232,7 +237,7 @@ def point_status(plan: _Plan, p: Point, rows: list[dict], ref_rows: list[dict],
     return {"status": status, "estimates": est, "decisions": decisions}
 
 
-def summarise(plan: _Plan, table: list[dict], searched: dict[str, dict]) -> dict[str, Any]:
+def summarise(plan: Plan, table: list[dict], searched: dict[str, dict]) -> dict[str, Any]:
     """``study.json``: every point's estimates, the answer per given combination, the
     monotonicity check, run counts."""
     study = plan.study

@@ -106,3 +106,12 @@ def test_every_bundled_study_validates():
     assert set(studies) >= {"adc_bits_pyro", "frame_memory", "lod_pyro"}
     for path in studies.values():
         load_study(path, resolve_scenario)
+
+
+def test_validate_checks_every_point_of_a_study(tmp_path, capsys):
+    text = STUDY.replace("values = [6, 8, 10]", "values = [6, 8, 24]")  # 24 bits: too slow
+    path = write_study(tmp_path, text)
+    assert main(["validate", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "3 points × 3 replicates" in out
+    assert "invalid point {'chip.adc.bits': 24}" in out and "1 of 3 points" in out
