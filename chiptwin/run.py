@@ -23,7 +23,7 @@ from chiptwin.config.consistency import check_consistency, scenario_warnings
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
 from chiptwin.dsp.pipeline import Frame, Pipeline, chain_for
 from chiptwin.results import detect, light_decay_per_s
-from chiptwin.scene import ChainOutput, Scene, StageTimer, stage_rng
+from chiptwin.scene import ChainOutput, PixelFrames, Scene, StageTimer, stage_rng
 
 
 @dataclass
@@ -130,67 +130,109 @@ def chip_sensor(s: Scenario) -> stages.SensorModel:
 def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Generator,
              rec: Recorder, timer: StageTimer | None = None, progress=None,
              keep_codes: bool = False) -> ChainOutput:
-    """Pixel → ADC → memory → DSP through the chip model, for photons per pixel per frame."""
+    """Pixel → ADC → memory → DSP through the chip model, for photons per pixel per frame.
+
+    What no random draw enters, the expected charge and CMS moments of every frame, is computed
+    once per scene (:meth:`Scene.pixel_frames`) and shared by its replicates. At the ``binned``
+    and ``events`` levels the codes are drawn ahead, a batch of frames at a time and in frame
+    order (:class:`_FrameReader`), so the draws are those of reading frame by frame. The fused
+    sampling and conversion is booked to the ``pixel`` stage; ``adc`` counts the clipped samples.
+    """
     timer = timer or StageTimer()
-    sch, sensor, pix_photons = scene.sch, scene.sensor, scene.pix_photons
-    adc = s.chip.adc
-    t_int = s.chip.timing.t_int_s
-    to_lsb = (1.0 + adc.gain_error) / sensor.e_per_lsb
-    # Rounding of the two M-sample means (reset and signal levels); read noise dithers it.
-    read_lsb = sensor.read_noise_e / sensor.e_per_lsb * (1.0 + adc.gain_error)
-    quant_var = 2.0 * pixel.quantization_var_of_mean(sensor.cms_samples, read_lsb)
-    args = (sensor.qe, sensor.gain_map, sensor.dark_e_per_s * t_int, sensor.full_well_e,
-            sensor.ktc_e, sensor.read_noise_e, sensor.cms_samples, sensor.true_cds)
+    with timer("pixel"):
+        expected = scene.pixel_frames(s.chip.timing.t_int_s, s.chip.adc.gain_error)
+    reader = _FrameReader(s, scene, expected, photons_level, rng, timer)
+    pipeline = _TimedPipeline(_dsp_level(s, keep_codes), timer)
+    inner = ("pixel", "adc", "dsp")
+    inner_before = sum(timer.seconds[k] for k in inner)
+    t0 = time.perf_counter()
+    chip = simulate_chip(scene.sch, reader, pipeline, rec, progress)
+    inner_s = sum(timer.seconds[k] for k in inner) - inner_before
+    timer.seconds["memory"] += time.perf_counter() - t0 - inner_s  # the event engine itself
+    out = _chain_output(chip, scene.sch, pipeline.inner, scene.sensor.e_per_lsb)
+    out.adc_clipped_samples = reader.clipped
+    out.full_well_pixel_frames = expected.full_well_pixel_frames
+    if reader.events is not None:
+        events = reader.events
+        out.saturation_s = np.array(events.saturation_s).reshape(-1, len(events.pixels))
+    return out
 
-    events = None
-    if photons_level == "events":
-        events = stages.EventPixels(scene.source, scene.coupling, stages.site_pixel_indices(s),
-                                    sensor, stage_rng(s.scenario.seed, "events"))
 
-    clipped = [0]  # ADC samples at code 0 or full scale
-    full = [0]  # pixel-frames whose expected charge reaches the full well
-
-    def read_frame(k: int) -> Frame:
-        photons = pix_photons[:, k]
-        with timer("pixel"):
-            mean_e, var_e = pixel.expected_frame(photons, *args)
-            lam = pixel.mean_electrons(photons, sensor.qe, sensor.gain_map, args[2])
-            full[0] += int(np.count_nonzero(lam >= sensor.full_well_e))
-            samples = None
-            if photons_level == "binned":
-                samples = pixel.sample_frame(rng, photons, *args)
-            elif events is not None:
-                collected = np.minimum(rng.poisson(lam), sensor.full_well_e)
-                collected[events.pixels] = events.collect(*sch.window_s(k))
-                samples = pixel.read_out(rng, collected, *args[4:])
-        with timer("adc"):
-            codes = None
-            if samples is not None:
-                volts = pixel.to_volts(np.concatenate(samples), sensor.conversion_gain_uV_per_e,
-                                       sensor.pedestal_V)
-                codes = pixel.adc_convert(volts, adc.bits, adc.v_min_V, adc.v_max_V,
-                                          adc.offset_error_lsb, adc.gain_error)
-                clipped[0] += int(np.count_nonzero((codes == 0) | (codes == 2**adc.bits - 1)))
-        return Frame(codes=codes, mean=mean_e * to_lsb, var=var_e * to_lsb**2 + quant_var)
-
+def _dsp_level(s: Scenario, keep_codes: bool) -> Pipeline:
+    """The DSP at the scenario's level: float, bit-accurate fixed point, or the RTL."""
     chain = chain_for(s.chip) if s.dsp_level in ("fixed", "rtl") else None
     if s.dsp_level == "rtl":
         from chiptwin.rtl import RtlPipeline
 
-        dsp = RtlPipeline(chain, report_error=s.chip.dsp.report_error, keep_codes=keep_codes)
-    else:
-        dsp = Pipeline(s.dsp_level, chain, report_error=s.chip.dsp.report_error,
-                       keep_codes=keep_codes)
-    pipeline = _TimedPipeline(dsp, timer)
-    t0 = time.perf_counter()
-    chip = simulate_chip(sch, read_frame, pipeline, rec, progress)
-    inner = sum(timer.seconds[k] for k in ("pixel", "adc", "dsp"))
-    timer.seconds["memory"] += time.perf_counter() - t0 - inner  # the event engine itself
-    out = _chain_output(chip, sch, pipeline.inner, sensor.e_per_lsb)
-    out.adc_clipped_samples, out.full_well_pixel_frames = clipped[0], full[0]
-    if events is not None:
-        out.saturation_s = np.array(events.saturation_s).reshape(-1, len(events.pixels))
-    return out
+        return RtlPipeline(chain, report_error=s.chip.dsp.report_error, keep_codes=keep_codes)
+    return Pipeline(s.dsp_level, chain, report_error=s.chip.dsp.report_error,
+                    keep_codes=keep_codes)
+
+
+#: ADC samples drawn ahead at most, per batch of frames (bounds the codes held to 8 MiB).
+_BATCH_SAMPLES = 1 << 20
+
+
+class _FrameReader:
+    """``read_frame(k)`` of the chip model: frame ``k`` as the ADCs deliver it.
+
+    Its moments are rows of the scene's :class:`~chiptwin.scene.PixelFrames`. Its codes (at the
+    ``binned`` and ``events`` levels) come from a batch of frames drawn ahead in one call of
+    :func:`chiptwin.pixel.binned_codes`: the chip model reads frames in order, each once, so
+    drawing ``k … k + batch − 1`` when frame ``k`` is first asked for draws what reading them one
+    by one would. At the ``events`` level the site pixels' charge is counted by
+    :class:`~chiptwin.stages.EventPixels` (its own stream) and replaces their Poisson draws.
+    """
+
+    def __init__(self, s: Scenario, scene: Scene, expected: PixelFrames, photons_level: str,
+                 rng: np.random.Generator, timer: StageTimer) -> None:
+        self.s, self.scene, self.expected, self.rng, self.timer = s, scene, expected, rng, timer
+        self.sampled = photons_level in ("binned", "events")
+        self.events = None
+        if photons_level == "events":
+            self.events = stages.EventPixels(
+                scene.source, scene.coupling, stages.site_pixel_indices(s), scene.sensor,
+                stage_rng(s.scenario.seed, "events"))
+        samples_per_frame = 2 * scene.sensor.cms_samples * scene.sensor.gain_map.size
+        self.batch = max(1, _BATCH_SAMPLES // max(samples_per_frame, 1))
+        self.codes = np.empty((0, 0, 0), np.int64)  # the batch drawn last
+        self.first = 0  # its first frame
+        self.clipped = 0  # ADC samples at code 0 or full scale
+
+    def __call__(self, k: int) -> Frame:
+        codes = None
+        if self.sampled:
+            if not self.first <= k < self.first + len(self.codes):
+                self._draw(k)
+            codes = self.codes[k - self.first]
+        return Frame(codes=codes, mean=self.expected.cds_mean_lsb[k],
+                     var=self.expected.cds_var_lsb2[k])
+
+    def _draw(self, k: int) -> None:
+        """Draw the codes of frames ``k …`` (the next batch) and count the clipped samples."""
+        following = self.first + len(self.codes)
+        if k != following:
+            raise RuntimeError(f"frame {k} read out of order: the next one is {following}")
+        stop = min(k + self.batch, self.scene.sch.n_frames)
+        sensor, adc = self.scene.sensor, self.s.chip.adc
+        with self.timer("pixel"):
+            pixels, counted = (), None
+            if self.events is not None:
+                pixels = self.events.pixels
+                counted = np.array([self.events.collect(*self.scene.sch.window_s(j))
+                                    for j in range(k, stop)])
+            self.codes = pixel.binned_codes(
+                self.rng, self.expected.mean_e[k:stop], full_well_e=sensor.full_well_e,
+                ktc_e=sensor.ktc_e, read_noise_e=sensor.read_noise_e,
+                n_samples=sensor.cms_samples, true_cds=sensor.true_cds,
+                conversion_gain_uV_per_e=sensor.conversion_gain_uV_per_e,
+                pedestal_V=sensor.pedestal_V, bits=adc.bits, v_min_V=adc.v_min_V,
+                v_max_V=adc.v_max_V, offset_lsb=adc.offset_error_lsb, gain_error=adc.gain_error,
+                counted_pixels=pixels, counted_e=counted)
+            self.first = k
+        with self.timer("adc"):
+            top = 2**adc.bits - 1
+            self.clipped += int(np.count_nonzero((self.codes == 0) | (self.codes == top)))
 
 
 class _TimedPipeline:

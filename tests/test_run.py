@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from chiptwin import pixel
 from chiptwin.cli import main
 from chiptwin.config import ScenarioError, load_scenario
-from chiptwin.run import run
+from chiptwin.run import chip_sensor, prepare, run, run_prepared
 
 TIMING_KEYS = {"wall_time_s", "stage_time_s"}
 
@@ -135,3 +137,70 @@ def test_noise_model_matches_blank_pixels_of_the_reference_chip():
     values = out.value_e[:, blank]
     measured = np.var(values - values.mean(axis=0), axis=0, ddof=1).mean()
     assert measured == pytest.approx(out.var_e2[:, blank].mean(), rel=0.03)
+
+
+def _same_result(a, b) -> None:
+    """Bit for bit: the summary (timings aside), every array, the event trace."""
+    assert json.dumps(_strip(a.summary)) == json.dumps(_strip(b.summary))
+    assert a.arrays.keys() == b.arrays.keys()
+    for name, arr in a.arrays.items():
+        other = b.arrays[name]
+        assert arr.dtype == other.dtype and np.array_equal(arr, other, equal_nan=True), name
+    assert a.trace.events == b.trace.events
+
+
+@pytest.mark.parametrize("overrides", [
+    [], ["chip.dsp.mode=fixed", "chip.dsp.report_error=true"], ["run.fidelity.photons=events"],
+    ["run.fidelity.photons=expected"], ["chip.adc.bits=8", "chip.pixel.dark_current_nA_per_cm2=5"],
+], ids=["binned", "fixed-dsp", "events", "expected", "8-bit"])
+def test_run_prepared_on_one_scene_equals_run_for_each_seed(small_toml, overrides):
+    """The contract a study relies on: one scene prepared, then ``run_prepared`` per replicate
+    (seeds in any order, one repeated) gives exactly ``run()`` for that seed. With one chip per
+    seed (``chip.fixed_pattern_seed = -1``) the replicate's sensor is redrawn, as a study does."""
+    for chip in (["chip.fixed_pattern_seed=5"], ["chip.fixed_pattern_seed=-1"]):
+        s = load_scenario(small_toml, [*chip, *overrides])
+        scene = prepare(s)
+        for seed in (3, 1, 2, 3):
+            rep = replace(s, scenario=replace(s.scenario, seed=seed))
+            rep_scene = scene if s.chip.fixed_pattern_seed >= 0 else replace(
+                scene, sensor=chip_sensor(rep))
+            _same_result(run_prepared(rep, rep_scene), run(s, seed=seed))
+
+
+def test_scene_computes_its_pixel_frames_once(small_toml):
+    """Replicates share the scene's expected charge and moments; a scene derived with ``replace``
+    (another sensor, other photons) computes its own."""
+    s = load_scenario(small_toml)
+    scene = prepare(s)
+    first = scene.pixel_frames(s.chip.timing.t_int_s, s.chip.adc.gain_error)
+    run_prepared(s, scene)
+    run_prepared(replace(s, scenario=replace(s.scenario, seed=2)), scene)
+    assert scene.pixel_frames(s.chip.timing.t_int_s, s.chip.adc.gain_error) is first
+    other = replace(scene, pix_photons=scene.pix_photons * 2.0)
+    assert other.pixel_frames(s.chip.timing.t_int_s, s.chip.adc.gain_error) is not first
+    assert not first.mean_e.flags.writeable  # shared by replicates: never changed in place
+
+
+def test_pixel_frames_are_the_per_frame_functions(small_toml):
+    """All frames at once equal :func:`pixel.mean_electrons` and :func:`pixel.expected_frame` on
+    one frame at a time, scaled to LSB as the chip model did per frame, bit for bit."""
+    s = load_scenario(small_toml, ["chip.adc.gain_error=0.01", "assay.photons_per_incorporation=0"])
+    scene = prepare(s)
+    got = scene.pixel_frames(s.chip.timing.t_int_s, s.chip.adc.gain_error)
+    sensor, t_int, gain = scene.sensor, s.chip.timing.t_int_s, s.chip.adc.gain_error
+    dark = sensor.dark_e_per_s * t_int
+    args = (sensor.qe, sensor.gain_map, dark, sensor.full_well_e, sensor.ktc_e,
+            sensor.read_noise_e, sensor.cms_samples, sensor.true_cds)
+    to_lsb = (1.0 + gain) / sensor.e_per_lsb
+    read_lsb = sensor.read_noise_e / sensor.e_per_lsb * (1.0 + gain)
+    quant_var = 2.0 * pixel.quantization_var_of_mean(sensor.cms_samples, read_lsb)
+    full = 0
+    for k in range(scene.sch.n_frames):
+        photons = scene.pix_photons[:, k]
+        lam = pixel.mean_electrons(photons, sensor.qe, sensor.gain_map, dark)
+        mean_e, var_e = pixel.expected_frame(photons, *args)
+        assert np.array_equal(got.mean_e[k], lam)
+        assert np.array_equal(got.cds_mean_lsb[k], mean_e * to_lsb)
+        assert np.array_equal(got.cds_var_lsb2[k], var_e * to_lsb**2 + quant_var)
+        full += int(np.count_nonzero(lam >= sensor.full_well_e))
+    assert got.full_well_pixel_frames == full > 0

@@ -23,7 +23,8 @@ The readout modelled, per frame (REFERENCE §3–4; El Gamal & Eltoukhy, IEEE Ci
 
 The DSP, not this package, forms ``mean(signal) − mean(reset)``. Photon-statistics levels:
 ``expected`` (:func:`expected_frame`, :func:`adc_expected`: moments, no sampling) and ``binned``
-(:func:`sample_frame` → :func:`to_volts` → :func:`adc_convert`, or the fused multi-core fast path
+(:func:`sample_frame` → :func:`to_volts` → :func:`adc_convert`; :func:`binned_codes`, the same
+draws and codes for many frames of a small array in one call; or the fused multi-core fast path
 :func:`sensor_chain` for large arrays). Randomness only through a passed ``numpy.random.Generator``.
 """
 
@@ -37,6 +38,7 @@ from chiptwin.pixel.adc import (
     to_volts,
 )
 from chiptwin.pixel.chain import sensor_chain
+from chiptwin.pixel.frames import binned_codes
 from chiptwin.pixel.sensor import (
     clipped_poisson_moments,
     conversion_gain_uV_per_e,
@@ -52,6 +54,7 @@ from chiptwin.pixel.sensor import (
 __all__ = [
     "adc_convert",
     "adc_expected",
+    "binned_codes",
     "clipped_poisson_moments",
     "conversion_gain_uV_per_e",
     "dark_current_e_per_s",

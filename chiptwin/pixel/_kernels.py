@@ -13,6 +13,11 @@ Hörmann's PTRS transformed rejection above), so it draws exactly what ``Generat
 from the same stream (tested bit for bit). numba 0.68's built-in ``Generator.poisson`` truncates
 with ``int()`` where NumPy floors, which accepts a few zero counts NumPy rejects at means ≥ 10.
 Gaussian draws (kTC, read noise, the ``gaussian`` shot level) come from a numba ``Generator``.
+
+The same sampler also draws from a NumPy ``Generator`` passed in (:func:`next_double` picks the
+uniform source by type), so :func:`frame_codes` replays, bit for bit, the per-frame draws of
+``sample_frame`` on the caller's stream: numba's ``Generator.random`` and ``standard_normal`` are
+NumPy's ``next_double`` and ziggurat (tested).
 """
 
 from __future__ import annotations
@@ -20,6 +25,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import types
+from numba.extending import overload
 
 from chiptwin._numba import NJIT
 
@@ -78,13 +85,29 @@ def sfc64_double(state: np.ndarray) -> float:
     return float(tmp >> np.uint64(11)) * (1.0 / 9007199254740992.0)
 
 
+def next_double(source) -> float:
+    """Next double in [0, 1) of ``source``: an SFC64 state ``uint64[4]`` (advanced in place by
+    :func:`sfc64_double`) or a ``numpy.random.Generator`` (its ``random()``, NumPy's
+    ``next_double``). Plain Python here; compiled code uses the overload below."""
+    if isinstance(source, np.random.Generator):
+        return source.random()
+    return sfc64_double(source)
+
+
+@overload(next_double, jit_options={"cache": True})
+def _next_double_jit(source):
+    if isinstance(source, types.Array):
+        return lambda source: sfc64_double(source)
+    return lambda source: source.random()
+
+
 @NJIT
-def _poisson_mult(state: np.ndarray, lam: float) -> int:
+def _poisson_mult(state, lam: float) -> int:
     enlam = math.exp(-lam)
     count = 0
     prod = 1.0
     while True:
-        prod *= sfc64_double(state)
+        prod *= next_double(state)
         if prod > enlam:
             count += 1
         else:
@@ -92,7 +115,7 @@ def _poisson_mult(state: np.ndarray, lam: float) -> int:
 
 
 @NJIT
-def _poisson_ptrs(state: np.ndarray, lam: float) -> int:
+def _poisson_ptrs(state, lam: float) -> int:
     slam = math.sqrt(lam)
     loglam = math.log(lam)
     b = 0.931 + 2.53 * slam
@@ -100,8 +123,8 @@ def _poisson_ptrs(state: np.ndarray, lam: float) -> int:
     invalpha = 1.1239 + 1.1328 / (b - 3.4)
     vr = 0.9277 - 3.6224 / (b - 2)
     while True:
-        u = sfc64_double(state) - 0.5
-        v = sfc64_double(state)
+        u = next_double(state) - 0.5
+        v = next_double(state)
         us = 0.5 - abs(u)
         k = math.floor((2 * a / us + b) * u + lam + 0.43)
         if us >= 0.07 and v <= vr:
@@ -114,9 +137,10 @@ def _poisson_ptrs(state: np.ndarray, lam: float) -> int:
 
 
 @NJIT
-def poisson(state: np.ndarray, lam: float) -> int:
-    """One Poisson count of mean ``lam`` ≥ 0 from the SFC64 ``state``, bit-identical to
-    ``Generator(SFC64).poisson(lam)`` on the same stream."""
+def poisson(state, lam: float) -> int:
+    """One Poisson count of mean ``lam`` ≥ 0 from ``state`` (an SFC64 ``uint64[4]`` or a
+    ``Generator``, see :func:`next_double`), bit-identical to ``Generator.poisson(lam)`` on the
+    same stream."""
     if lam >= 10.0:
         return _poisson_ptrs(state, lam)
     if lam == 0.0:
@@ -191,3 +215,46 @@ def chain_chunk(
             e = (collected + k_signal) + read_noise * gen.standard_normal()
             signal_out[m, i] = adc_code(pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top)
     shot_state[:] = state
+
+
+@NJIT
+def frame_codes(
+    gen, mean_e, counted_pixels, counted_e, full_well, ktc, read_noise, true_cds, pedestal, cg_V,
+    v_min, lsb, adc_gain, offset, top, codes_out,
+):  # fmt: skip
+    """Frames of the ``binned`` level, one after another, from the NumPy ``Generator`` ``gen``.
+
+    ``mean_e`` is ``(n_frames, n)``: the expected charge of each pixel in each frame. Per frame,
+    in the order of ``sample_frame`` (so the draws are its draws): the Poisson count of every
+    pixel, clipped at ``full_well`` (then replaced by ``counted_e[f]`` for ``counted_pixels``,
+    charge counted another way); if ``ktc > 0`` the signal kTC draw of every pixel, then (without
+    ``true_cds``) the reset kTC draw of every pixel; the ``(M, n)`` reset samples' read noise, the
+    ``(M, n)`` signal samples' read noise. Each sample is formed and converted as in
+    ``read_out``, ``to_volts`` and ``adc_convert``; ``codes_out`` is ``(n_frames, 2M, n)``, the M
+    reset codes first.
+    """
+    n_frames, n = mean_e.shape
+    m = codes_out.shape[1] // 2
+    collected = np.empty(n)
+    k_signal = np.zeros(n)
+    k_reset = np.zeros(n)
+    for f in range(n_frames):
+        for i in range(n):
+            collected[i] = min(float(poisson(gen, mean_e[f, i])), full_well)
+        for j in range(counted_pixels.size):
+            collected[counted_pixels[j]] = counted_e[f, j]
+        if ktc > 0.0:
+            for i in range(n):
+                k_signal[i] = ktc * gen.standard_normal()
+            for i in range(n):
+                k_reset[i] = k_signal[i] if true_cds else ktc * gen.standard_normal()
+        for j in range(m):
+            for i in range(n):
+                e = k_reset[i] + read_noise * gen.standard_normal()
+                volts = pedestal + e * cg_V
+                codes_out[f, j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
+        for j in range(m):
+            for i in range(n):
+                e = (collected[i] + k_signal[i]) + read_noise * gen.standard_normal()
+                volts = pedestal + e * cg_V
+                codes_out[f, m + j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)

@@ -1,0 +1,98 @@
+"""The ``binned`` level for many frames at once: expected charge → ADC codes, in one kernel call.
+
+:func:`binned_codes` gives exactly what calling :func:`~chiptwin.pixel.sensor.sample_frame` →
+:func:`~chiptwin.pixel.adc.to_volts` → :func:`~chiptwin.pixel.adc.adc_convert` frame after frame
+on the same ``rng`` gives: the same draws, in the same order, from the caller's stream, and the same
+arithmetic per sample, so the codes are bit for bit those (tested), and ``rng`` is left in the same
+state. It is the path of the chip model, which reads a small array over thousands of frames: the
+arguments are checked once per call instead of once per frame, and no Python runs per frame.
+
+For large arrays on every core see :func:`~chiptwin.pixel.chain.sensor_chain` (the same
+statistics from per-chunk streams, not the same draws).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from chiptwin.pixel import _kernels
+from chiptwin.pixel._checks import check_array
+from chiptwin.pixel.chain import _readout_consts
+from chiptwin.pixel.sensor import _check_readout
+
+#: Largest mean NumPy's Poisson sampler accepts (``numpy.random`` ``POISSON_LAM_MAX``). Unit: e⁻.
+POISSON_LAM_MAX: float = float(np.iinfo(np.int64).max - np.sqrt(np.iinfo(np.int64).max) * 10)
+
+
+def binned_codes(
+    rng: np.random.Generator,
+    mean_e: ArrayLike,
+    *,
+    full_well_e: float,
+    ktc_e: float,
+    read_noise_e: float,
+    n_samples: int,
+    true_cds: bool,
+    conversion_gain_uV_per_e: float,
+    pedestal_V: float,
+    bits: int,
+    v_min_V: float,
+    v_max_V: float,
+    offset_lsb: float = 0.0,
+    gain_error: float = 0.0,
+    counted_pixels: ArrayLike = (),
+    counted_e: ArrayLike | None = None,
+) -> NDArray[np.int64]:
+    """ADC codes of the reset and signal samples of ``n_frames`` frames, drawn in frame order.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The pixel stage's stream; advanced as the frame-by-frame path advances it.
+    mean_e : array_like (n_frames, n_pixels)
+        Expected charge of each pixel in each frame, before the full-well clip
+        (:func:`~chiptwin.pixel.sensor.mean_electrons`). Unit: e⁻.
+    full_well_e, ktc_e, read_noise_e, n_samples, true_cds
+        As in :func:`~chiptwin.pixel.sensor.sample_frame`.
+    conversion_gain_uV_per_e, pedestal_V
+        As in :func:`~chiptwin.pixel.adc.to_volts`.
+    bits, v_min_V, v_max_V, offset_lsb, gain_error
+        As in :func:`~chiptwin.pixel.adc.adc_convert`.
+    counted_pixels : array_like of int (n_counted,), optional
+        Pixels (indices along ``n_pixels``) whose collected charge was counted another way (the
+        ``events`` photon level). Their Poisson draws are still made, and then replaced, as
+        ``read_out`` on a copy of the clipped counts with these entries replaced would have it.
+    counted_e : array_like (n_frames, n_counted), optional
+        Their collected charge in each frame. Unit: e⁻.
+
+    Returns
+    -------
+    ndarray of int64 (n_frames, 2M, n_pixels)
+        Per frame the M reset codes, then the M signal codes: frame ``k`` is
+        ``adc_convert(to_volts(np.concatenate(sample_frame(rng, ...)), ...), ...)`` of the
+        frame-by-frame path. Unit: codes.
+    """
+    lam = np.ascontiguousarray(check_array("mean_e", mean_e, 0.0, POISSON_LAM_MAX))
+    if lam.ndim != 2:
+        raise ValueError(f"mean_e has shape {lam.shape}: must be (n_frames, n_pixels)")
+    fw, ktc, read, m = _check_readout(full_well_e, ktc_e, read_noise_e, n_samples)
+    readout = _readout_consts(pedestal_V, conversion_gain_uV_per_e, bits, v_min_V, v_max_V,
+                              offset_lsb, gain_error)
+    pixels, counted = _counted(counted_pixels, counted_e, lam.shape)
+    codes = np.empty((lam.shape[0], 2 * m, lam.shape[1]), np.int64)
+    _kernels.frame_codes(rng, lam, pixels, counted, fw, ktc, read, bool(true_cds), *readout, codes)
+    return codes
+
+
+def _counted(pixels: ArrayLike, counted_e: ArrayLike | None, shape: tuple[int, int]
+             ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Checked ``counted_pixels`` and ``counted_e`` for a ``(n_frames, n_pixels)`` run."""
+    idx = np.asarray(pixels, dtype=np.int64).reshape(-1)
+    if idx.size and (idx.min() < 0 or idx.max() >= shape[1]):
+        raise ValueError(f"counted_pixels = {pixels!r}: must be indices in [0, {shape[1] - 1}]")
+    values = np.zeros((shape[0], 0)) if counted_e is None else counted_e
+    arr = np.ascontiguousarray(check_array("counted_e", values, 0.0))
+    if arr.shape != (shape[0], idx.size):
+        raise ValueError(f"counted_e has shape {arr.shape}: must be {(shape[0], idx.size)}")
+    return idx, arr

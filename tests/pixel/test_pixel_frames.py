@@ -1,0 +1,108 @@
+"""chiptwin.pixel.binned_codes (many frames in one kernel call) against its slow obvious reference,
+sample_frame → to_volts → adc_convert called frame after frame on the same Generator: the same
+codes bit for bit and the Generator left in the same state (equivalence tests, STYLE 7)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from chiptwin.pixel import _kernels, adc_convert, binned_codes, read_out, sample_frame, to_volts
+
+READOUT = dict(conversion_gain_uV_per_e=0.16, pedestal_V=0.1, bits=13, v_min_V=0.0, v_max_V=1.0)
+
+
+def slow_codes(rng, mean_e, *, full_well_e, ktc_e, read_noise_e, n_samples, true_cds,
+               conversion_gain_uV_per_e, pedestal_V, bits, v_min_V, v_max_V, offset_lsb=0.0,
+               gain_error=0.0, counted_pixels=(), counted_e=None):
+    """Frame by frame through the public functions, as the chip model read frames before."""
+    frames = []
+    for k, lam in enumerate(mean_e):
+        if len(counted_pixels):
+            collected = np.minimum(rng.poisson(lam), full_well_e)
+            collected[list(counted_pixels)] = counted_e[k]
+            samples = read_out(rng, collected, ktc_e, read_noise_e, n_samples, true_cds)
+        else:
+            samples = sample_frame(rng, lam, 1.0, 1.0, 0.0, full_well_e, ktc_e, read_noise_e,
+                                   n_samples, true_cds)
+        volts = to_volts(np.concatenate(samples), conversion_gain_uV_per_e, pedestal_V)
+        frames.append(adc_convert(volts, bits, v_min_V, v_max_V, offset_lsb, gain_error))
+    return np.array(frames, dtype=np.int64).reshape(len(mean_e), 2 * n_samples, -1)
+
+
+def _mean_e(n_frames=40, n_pixels=23):
+    """Means across the sampler's branches (0, < 10, ≥ 10, huge) and past the full well."""
+    rng = np.random.default_rng(3)
+    lam = rng.uniform(0.0, 3e4, (n_frames, n_pixels))
+    lam[0, :7] = [0.0, 1e-3, 5.0, 9.999999, 10.0, 2.5e5, 1e7]
+    return lam
+
+
+CASES = [
+    dict(full_well_e=6e6, ktc_e=400.0, read_noise_e=100.0, n_samples=4, true_cds=True),
+    dict(full_well_e=2e4, ktc_e=40.0, read_noise_e=6.0, n_samples=3, true_cds=False),
+    dict(full_well_e=2e4, ktc_e=0.0, read_noise_e=6.0, n_samples=1, true_cds=False),
+    dict(full_well_e=1e5, ktc_e=40.0, read_noise_e=0.0, n_samples=2, true_cds=True,
+         offset_lsb=0.37, gain_error=-0.013),
+    dict(full_well_e=2e4, ktc_e=40.0, read_noise_e=6.0, n_samples=2, true_cds=True,
+         counted_pixels=[2, 5], counted_e=np.arange(80.0).reshape(40, 2) * 300.0),
+]
+
+
+#: An 8-bit ADC whose range the charge overruns and whose zero sits on the reset level: codes
+#: clip at both ends.
+CLIPPING = dict(conversion_gain_uV_per_e=60.0, pedestal_V=0.0, bits=8, v_min_V=0.0, v_max_V=1.0)
+
+
+@pytest.mark.parametrize("case", CASES, ids=["pyro", "no-cds", "no-ktc", "errors", "counted"])
+@pytest.mark.parametrize("readout", [READOUT, CLIPPING], ids=["13-bit", "8-bit-clipping"])
+def test_codes_are_those_of_the_frame_by_frame_path(case, readout):
+    """Identical codes and the same Generator state after."""
+    kw = {**case, **readout}
+    a, b = np.random.default_rng(9), np.random.default_rng(9)
+    ref = slow_codes(a, _mean_e(), **kw)
+    got = binned_codes(b, _mean_e(), **kw)
+    assert got.dtype == np.int64 and got.shape == ref.shape
+    assert np.array_equal(got, ref)
+    assert a.bit_generator.state == b.bit_generator.state
+    if readout is CLIPPING:
+        assert (got == 255).any() and (got == 0).any()
+
+
+def test_batches_draw_what_one_call_draws():
+    """Frames drawn in batches, one after another on one Generator: the same codes as one call."""
+    kw = {**CASES[0], **READOUT}
+    whole = binned_codes(np.random.default_rng(4), _mean_e(), **kw)
+    rng = np.random.default_rng(4)
+    parts = [binned_codes(rng, part, **kw) for part in np.split(_mean_e(), [1, 7, 30])]
+    assert np.array_equal(np.concatenate(parts), whole)
+
+
+def test_poisson_sampler_on_a_generator_is_numpys():
+    """The kernel's Poisson sampler drawing from a PCG64 Generator gives Generator.poisson's
+    counts bit for bit and leaves the same state (numba's own Generator.poisson does not)."""
+    lam = np.concatenate([np.array([0.0, 1e-3, 0.5, 5.0, 9.999999, 10.0, 10.5, 1e4, 1e7]),
+                          np.random.default_rng(5).uniform(0.0, 3e4, 100_000)])
+    a, b = np.random.default_rng(6), np.random.default_rng(6)
+    out = np.empty(lam.size, np.int64)
+    _kernels.poisson_fill(a, lam, out)
+    assert np.array_equal(out, b.poisson(lam))
+    assert a.bit_generator.state == b.bit_generator.state
+
+
+@pytest.mark.parametrize(("kw", "name"), [
+    (dict(mean_e=[[-1.0]]), "mean_e"),
+    (dict(mean_e=[1.0, 2.0]), "mean_e"),
+    (dict(full_well_e=0.0), "full_well_e"),
+    (dict(ktc_e=-1.0), "ktc_e"),
+    (dict(n_samples=0), "n_samples"),
+    (dict(bits=30), "bits"),
+    (dict(v_max_V=0.0), "v_max_V"),
+    (dict(gain_error=-1.0), "gain_error"),
+    (dict(counted_pixels=[3]), "counted_pixels"),
+    (dict(counted_pixels=[0], counted_e=[[1.0, 2.0]]), "counted_e"),
+])
+def test_bad_arguments_raise_naming_them(kw, name):
+    args = {"mean_e": [[1.0, 2.0]], **CASES[0], **READOUT, **kw}
+    with pytest.raises(ValueError, match=name):
+        binned_codes(np.random.default_rng(0), **args)
