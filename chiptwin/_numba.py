@@ -1,13 +1,54 @@
-"""The one place numba options are set.
+"""The one place numba options are set, and where its on-disk cache lives.
 
 Every ``@njit`` in chiptwin uses :data:`NJIT`; change caching or fastmath here, never per kernel.
 ``fastmath`` stays off: the fixed-point kernels and the noise statistics rely on IEEE semantics.
 Set ``NUMBA_DISABLE_JIT=1`` to run every kernel as plain Python (for coverage and debugging).
+
+**Where compiled kernels are cached.** In a source tree (an editable install, the tests) numba
+keeps its cache beside the sources, in ``__pycache__``, as usual. An installed package's folder
+is pip's, not ours: cache files written there outlive ``pip uninstall`` and leave a
+``chiptwin`` folder without ``__init__.py`` that shadows a later editable install (issue 11). So
+an installed chiptwin caches in the user's cache folder, ``$XDG_CACHE_HOME/chiptwin/numba``
+(default ``~/.cache/chiptwin/numba``). ``NUMBA_CACHE_DIR``, when set, always wins.
 """
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
+import numba
 from numba import njit
+
+PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+def in_source_tree(package_dir: Path = PACKAGE_DIR) -> bool:
+    """True when the package is imported from a checkout (its parent holds pyproject.toml)."""
+    return (package_dir.parent / "pyproject.toml").is_file()
+
+
+def user_cache_dir() -> Path:
+    """``$XDG_CACHE_HOME/chiptwin/numba``, or ``~/.cache/chiptwin/numba``."""
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "chiptwin" / "numba"
+
+
+def place_cache() -> str:
+    """Point numba's cache at the user cache folder for an installed package (see above);
+    returns the folder in use ("" = beside the sources)."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return os.environ["NUMBA_CACHE_DIR"]
+    if in_source_tree():
+        return ""
+    folder = str(user_cache_dir())
+    os.environ["NUMBA_CACHE_DIR"] = folder  # for processes started from this one
+    numba.config.CACHE_DIR = folder  # numba read its environment when it was imported
+    return folder
+
+
+#: The cache folder in force ("" = numba's default, beside the sources).
+CACHE_DIR = place_cache()
 
 #: Options shared by every kernel: compiled once, cached on disk, no GIL (threads can share work).
 NJIT_OPTIONS: dict[str, bool] = {"cache": True, "nogil": True, "fastmath": False}
