@@ -53,6 +53,8 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
         sums, var = window_sums(out.block_t_s, out.value_e, out.var_e2, out.dark_var_e2, n_avg,
                                 edges, light_decay_per_s(s))
         sites = _site_rows(s, rc, sums[0, idx], np.sqrt(var[0, idx]), out, idx)
+        for site, sd in zip(sites, np.sqrt(var[0, idx]), strict=True):
+            site["signal_sd_e"] = float(sd)  # the window total is itself the estimate
     if out.saturation_s is not None:
         for i, site in enumerate(sites):
             t = out.saturation_s[:, i]
@@ -107,16 +109,32 @@ def _site_rows(s: Scenario, rc: np.ndarray, signal: np.ndarray, noise: np.ndarra
 
 
 def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
-    """Flow values per site, normalised by the key's 1-mers, and the called sequences."""
+    """Flow values per site, normalised by the key's 1-mers, and the called sequences.
+
+    A site's ``signal_e`` is its 1-mer level, the mean of the key's K single-base flow totals;
+    ``noise_e`` is the noise of ONE 1-mer flow (rms over those flows), so ``snr_*`` is the SNR
+    a single-base call faces. ``signal_sd_e`` is the standard deviation of the 1-mer level
+    itself: the mean of K flows whose shared dark reference correlates them (≈ 72 % of a flow's
+    variance on pyro_1fmol), so it is √(Σ independent/K² + (Σ a_i/K)²·σ²_dark), between
+    noise_e/√K and noise_e (pyro_1fmol: 0.90 · noise_e; checked by Monte Carlo).
+    """
     a = s.assay
     nucs, n_inc = stages.flow_program(s)
     edges = a.start_s + a.flow_period_s * np.arange(a.n_flows + 1)
-    sums, var = window_sums(out.block_t_s, out.value_e, out.var_e2, out.dark_var_e2,
-                            s.chip.dsp.average_frames, edges, light_decay_per_s(s))
+    n_avg, decay = s.chip.dsp.average_frames, light_decay_per_s(s)
+    sums, var = window_sums(out.block_t_s, out.value_e, out.var_e2, out.dark_var_e2, n_avg,
+                            edges, decay)
+    # a_i²: each window's weight on the (common) dark reference, for unit dark variance
+    zero = np.zeros((len(out.block_t_s), 1))
+    _, a2 = window_sums(out.block_t_s, zero, zero, np.ones(1), n_avg, edges, decay)
     key_n = pyro.key_flow_counts(a.key, a.flow_order)
     ones = np.flatnonzero(key_n == 1)
-    flow_values, calls, signal, noise = [], [], [], []
+    coherent = np.sqrt(a2[ones, 0]).sum() / len(ones)
+    flow_values, calls, signal, noise, level_sd = [], [], [], [], []
     for j in idx:
+        independent = var[ones, j] - a2[ones, 0] * out.dark_var_e2[j]
+        level_sd.append(float(np.sqrt(independent.sum() / len(ones) ** 2
+                                      + coherent**2 * out.dark_var_e2[j])))
         ref = float(np.mean(sums[ones, j]))
         norm = pyro.normalise_flows(sums[:, j], key_n) if ref > 0 else np.zeros(a.n_flows)
         flow_values.append(norm)
@@ -136,8 +154,11 @@ def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
     arrays["flow_values"] = np.array(flow_values)
     arrays["flow_sums_e"] = sums[:, idx].T
     flow_of_block = np.searchsorted(edges, out.block_t_s, side="right") - 1
-    return _site_rows(s, stages.site_pixels(s), np.array(signal), np.array(noise), out, idx,
-                      peak_window=np.isin(flow_of_block, ones))
+    sites = _site_rows(s, stages.site_pixels(s), np.array(signal), np.array(noise), out, idx,
+                       peak_window=np.isin(flow_of_block, ones))
+    for site, sd in zip(sites, level_sd, strict=True):
+        site["signal_sd_e"] = sd
+    return sites
 
 
 def chip_figures(s: Scenario, sch: Schedule, chip: ChipRun) -> dict[str, Any]:

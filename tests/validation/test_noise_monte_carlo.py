@@ -1,0 +1,50 @@
+"""The propagated noise against the spread it predicts, by Monte Carlo over seeds (issue 11).
+
+One chip (``chip.fixed_pattern_seed`` pinned), the scene prepared once, 1,000 seeds of the
+small pyrosequencing scenario. Tolerance: the standard error of a sample standard deviation of n
+normal draws is σ/√(2(n−1)) (2.2 % at n = 1,000); every check allows 4 of them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from chiptwin.config import load_scenario
+from chiptwin.run import prepare, run_prepared
+
+N_SEEDS = 1000
+TOL = 4 / np.sqrt(2 * (N_SEEDS - 1))
+
+
+@pytest.fixture(scope="module")
+def seeds_of_small(tmp_path_factory):
+    from tests.conftest import SMALL
+
+    path = tmp_path_factory.mktemp("mc") / "small.toml"
+    path.write_text(SMALL)
+    s = load_scenario(path, ["chip.fixed_pattern_seed=1"])
+    scene = prepare(s)
+    runs = [run_prepared(replace(s, scenario=replace(s.scenario, seed=k)), scene).summary
+            for k in range(N_SEEDS)]
+    return runs
+
+
+def test_run_total_level_spread_matches_signal_sd(seeds_of_small):
+    """A site's 1-mer level (mean of the key's 1-mer flows) spreads as ``signal_sd_e`` says;
+    ``noise_e`` is one flow's noise, and the level spreads less (shared dark reference)."""
+    for site in range(2):
+        level = np.array([r["sites"][site]["signal_e"] for r in seeds_of_small])
+        sd = seeds_of_small[0]["sites"][site]["signal_sd_e"]
+        noise = seeds_of_small[0]["sites"][site]["noise_e"]
+        assert np.std(level, ddof=1) / sd == pytest.approx(1.0, abs=TOL)
+        assert sd < noise
+
+
+def test_per_flow_spread_matches_flow_noise(seeds_of_small):
+    sums = np.array([[f["signal_e"] for f in r["flows"]] for r in seeds_of_small])
+    noise = np.array([f["noise_e"] for f in seeds_of_small[0]["flows"]])
+    ratio = np.std(sums, axis=0, ddof=1) / noise
+    assert np.all(np.abs(ratio - 1.0) < TOL), ratio
