@@ -1,0 +1,289 @@
+"""The fidelity ladder of a scene: what each level costs and how wrong it is (SPEC: "Speed
+against error").
+
+The reference is the most faithful combination the scene allows (kinetics ``cascade`` for
+pyrosequencing, photons ``events``, optics ``psf`` for contact imaging, DSP ``rtl`` when
+Verilator is present, else ``fixed``). Each other level is run with the other stages at the
+reference, one stage at a time, and so is the cheapest combination (closed_form, expected, na2,
+float). For every row:
+
+- wall time: the median of the replicates' warm ``run()`` times in this process (one warm-up
+  run first, not counted), and the speed-up against the reference;
+- the error of each headline figure against the reference, per replicate with the SAME seed
+  (common random numbers: the levels share the seed's named streams, so where two levels draw
+  the same way their noise cancels in the difference), as a mean with a Student-t interval.
+  Where the levels draw differently (``expected`` draws nothing; ``events`` draws arrival
+  times where ``binned`` draws counts) the interval holds the reference's own noise: the
+  ``crn`` field of each row says which.
+
+Figures (max over sites, flows and blocks): ``signal_rel`` and ``noise_rel`` (relative),
+``snr_rel`` (relative, power SNR) and ``snr_db``, ``flow_value_abs`` (normalised flow values),
+``calls_diff`` (share of reads that differ from the reference's), ``dsp_lsb`` (DSP outputs at
+the site pixels, in ADC LSB).
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from chiptwin.config import Scenario, ScenarioError
+from chiptwin.config.consistency import check_consistency
+from chiptwin.run import Result, chip_sensor, run
+from chiptwin.study.stats import mean_estimate
+
+#: The levels of each stage, cheapest first (raytrace is not built: the ladder skips it).
+LEVELS: dict[str, tuple[str, ...]] = {
+    "kinetics": ("closed_form", "cascade"),
+    "photons": ("expected", "binned", "events"),
+    "optics": ("na2", "psf"),
+    "dsp": ("float", "fixed", "rtl"),
+}
+#: Stages whose levels all draw the same random numbers for the same seed (the photon levels
+#: draw differently: none, counts, arrival times).
+SAME_DRAWS = frozenset({"kinetics", "optics", "dsp"})
+
+
+@dataclass
+class Rung:
+    """One row of the ladder."""
+
+    stage: str  # "reference", a stage name, or "cheapest"
+    level: str  # "kinetics=…, photons=…, …" for the combinations
+    fidelity: dict[str, str]
+    wall_s: float = math.nan
+    speedup: float = math.nan
+    errors: dict[str, dict[str, Any]] = field(default_factory=dict)
+    crn: bool = True
+    skipped: str = ""
+
+
+def with_levels(s: Scenario, levels: dict[str, str]) -> Scenario:
+    """``s`` at the given stage levels (the DSP level set on the chip, as ``chip.dsp.mode``)."""
+    fid = replace(s.run.fidelity, **{k: v for k, v in levels.items() if k != "dsp"}, dsp="")
+    chip = replace(s.chip, dsp=replace(s.chip.dsp, mode=levels.get("dsp", s.dsp_level)))
+    return replace(s, run=replace(s.run, fidelity=fid), chip=chip)
+
+
+def reference_levels(s: Scenario) -> dict[str, str]:
+    """The most faithful level of each stage that this scene accepts."""
+    out = {}
+    for stage, levels in LEVELS.items():
+        for level in reversed(levels):
+            try:
+                check_consistency(with_levels(s, {**out, stage: level}))
+            except ScenarioError:
+                continue
+            out[stage] = level
+            break
+    return out
+
+
+def _label(levels: dict[str, str]) -> str:
+    return ", ".join(f"{k}={v}" for k, v in levels.items())
+
+
+def plan(s: Scenario, reference: dict[str, str] | None = None) -> list[Rung]:
+    """The reference, each stage's other levels one at a time, and the cheapest combination;
+    levels the scene refuses are kept as skipped rows with the reason. ``reference`` pins the
+    reference's levels (default: the most faithful the scene accepts)."""
+    ref = {**reference_levels(s), **(reference or {})}
+    rungs = [Rung("reference", _label(ref), ref)]
+    for stage, levels in LEVELS.items():
+        for level in levels:
+            if level == ref[stage]:
+                continue
+            rungs.append(Rung(stage, level, {**ref, stage: level}, crn=stage in SAME_DRAWS))
+    cheapest = {stage: levels[0] for stage, levels in LEVELS.items()}
+    rungs.append(Rung("cheapest", _label(cheapest), cheapest,
+                      crn=cheapest["photons"] == ref["photons"]))
+    for r in rungs:
+        try:
+            check_consistency(with_levels(s, r.fidelity))
+        except ScenarioError as exc:
+            r.skipped = exc.allowed
+    return rungs
+
+
+def figures(result: Result, e_per_lsb: float) -> dict[str, np.ndarray]:
+    """The headline figures of one run that the ladder compares."""
+    sm, a = result.summary, result.arrays
+    out = {name: np.array([site[key] for site in sm["sites"]]) for name, key in
+           (("signal", "signal_e"), ("noise", "noise_e"), ("snr", "snr_power"))}
+    out["dsp"] = a["site_signal_e"] / e_per_lsb
+    if "flow_values" in a:
+        out["flow_values"] = a["flow_values"]
+        out["reads"] = np.array(sm["called_sequences"])
+    return out
+
+
+def errors(level: dict[str, np.ndarray], ref: dict[str, np.ndarray]) -> dict[str, float]:
+    """Each figure's error against the reference run with the same seed."""
+    def rel(x, y):
+        return float(np.max(np.abs(x - y) / np.abs(y))) if np.all(y != 0) else math.inf
+
+    out = {"signal_rel": rel(level["signal"], ref["signal"]),
+           "noise_rel": rel(level["noise"], ref["noise"]),
+           "snr_rel": rel(level["snr"], ref["snr"])}
+    with np.errstate(divide="ignore", invalid="ignore"):
+        db = np.abs(10 * np.log10(level["snr"] / ref["snr"]))
+    out["snr_db"] = float(np.max(db)) if np.all(np.isfinite(db)) else math.inf
+    if level["dsp"].shape == ref["dsp"].shape:
+        out["dsp_lsb"] = float(np.max(np.abs(level["dsp"] - ref["dsp"]), initial=0.0))
+    if "flow_values" in ref:
+        out["flow_value_abs"] = float(np.max(np.abs(level["flow_values"] - ref["flow_values"])))
+        out["calls_diff"] = float(np.mean(level["reads"] != ref["reads"]))
+    return out
+
+
+def run_ladder(s: Scenario, replicates: int = 5, reference: dict[str, str] | None = None,
+               progress=None) -> dict[str, Any]:
+    """Run every rung of the ladder on ``replicates`` seeds; returns the ``ladder.json`` dict."""
+    if not 2 <= replicates <= 1000:
+        raise ScenarioError(s.source, "--replicates", replicates, "must be in [2, 1000]")
+    seeds = [(s.scenario.seed + k) % 2**63 for k in range(replicates)]
+    rungs = plan(s, reference)
+    if rungs[0].skipped:
+        raise ScenarioError(s.source, "reference", rungs[0].level, rungs[0].skipped)
+    e_per_lsb = chip_sensor(s).e_per_lsb
+    ref_figures: list[dict[str, np.ndarray]] = []
+    for i, rung in enumerate(rungs):
+        if rung.skipped:
+            continue
+        sv = with_levels(s, rung.fidelity)
+        run(sv)  # warm-up: compile and cache what this level needs
+        walls, errs = [], []
+        for k, seed in enumerate(seeds):
+            result = run(sv, seed=seed)
+            walls.append(result.summary["wall_time_s"])
+            fig = figures(result, e_per_lsb)
+            if rung.stage == "reference":
+                ref_figures.append(fig)
+            errs.append(errors(fig, ref_figures[k]))
+        rung.wall_s = statistics.median(walls)
+        rung.errors = {name: _interval([e[name] for e in errs]) for name in errs[0]}
+        if progress:
+            progress(i + 1, len(rungs))
+    ref_wall = rungs[0].wall_s
+    for rung in rungs:
+        rung.speedup = ref_wall / rung.wall_s if rung.wall_s > 0 else math.nan
+    return {"scenario": s.scenario.name, "replicates": replicates, "seeds": seeds,
+            "reference": rungs[0].fidelity,
+            "method": "errors per replicate against the reference run with the same seed; "
+                      "value = mean, ci = 95 % Student-t half-width; wall = median warm run()",
+            "rows": [_row(r) for r in rungs]}
+
+
+def _interval(values: list[float]) -> dict[str, float | None]:
+    x = np.array(values)
+    if not np.all(np.isfinite(x)):
+        return {"value": None, "ci": None, "note": "not finite in some replicates"}
+    e = mean_estimate(x, 0.95)
+    return {"value": e.value, "ci": (e.hi - e.value) if math.isfinite(e.hi) else None}
+
+
+def _row(r: Rung) -> dict[str, Any]:
+    row = {"stage": r.stage, "level": r.level, "fidelity": r.fidelity, "crn": r.crn}
+    if r.skipped:
+        return {**row, "skipped": r.skipped}
+    return {**row, "wall_s": r.wall_s, "speedup": r.speedup, "errors": r.errors}
+
+
+def pareto(rows: list[dict], figure: str) -> list[int]:
+    """Indices of the rows no other row beats in both wall time and ``figure``'s error."""
+    pts = [(i, r["wall_s"], r["errors"][figure]["value"]) for i, r in enumerate(rows)
+           if "errors" in r and r["errors"].get(figure, {}).get("value") is not None]
+    front, best = [], math.inf
+    for i, _, err in sorted(pts, key=lambda p: (p[1], p[2])):
+        if err < best:
+            front.append(i)
+            best = err
+    return front
+
+
+def table(ladder: dict[str, Any]) -> str:
+    """The ladder as a plain-text table (the terminal and ladder.md)."""
+    names = list(dict.fromkeys(k for r in ladder["rows"] for k in r.get("errors", {})))
+    head = f"{'stage':10s} {'level':34s} {'wall s':>8s} {'speed-up':>8s}  " + "  ".join(
+        f"{n:>17s}" for n in names)
+    lines = [head, "-" * len(head)]
+    for r in ladder["rows"]:
+        level = r["level"] if len(r["level"]) <= 34 else r["level"][:31] + "..."
+        if "skipped" in r:
+            lines.append(f"{r['stage']:10s} {level:34s} skipped: {r['skipped']}")
+            continue
+        cells = []
+        for n in names:
+            e = r["errors"].get(n)
+            if not e or e["value"] is None:
+                cells.append(f"{'–':>17s}")
+            else:
+                ci = f"±{e['ci']:.2g}" if e["ci"] is not None else ""
+                cells.append(f"{e['value']:>9.3g}{ci:>8s}")
+        mark = "" if r["crn"] else " *"
+        lines.append(f"{r['stage']:10s} {level:34s} {r['wall_s']:8.3f} {r['speedup']:8.2f}  "
+                     + "  ".join(cells) + mark)
+    lines.append("* draws differ from the reference's: the interval holds the reference's noise")
+    return "\n".join(lines)
+
+
+def write_ladder(ladder: dict[str, Any], out_dir) -> None:
+    """``ladder.json``, ``ladder.png`` (error against wall time, log axes, Pareto front) and
+    ``ladder.md`` into ``out_dir``, replacing a previous ladder whole."""
+    import json
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    from chiptwin.report import check_out_dir
+
+    out = check_out_dir(out_dir, marker="ladder.json")
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        (tmp / "ladder.json").write_text(json.dumps(ladder, indent=1) + "\n")
+        figure = "snr_rel"
+        _plot(ladder, figure, tmp / "ladder.png")
+        (tmp / "ladder.md").write_text(
+            f"# Fidelity ladder: {ladder['scenario']}\n\n{ladder['method']}; "
+            f"{ladder['replicates']} replicates.\n\n```\n{table(ladder)}\n```\n\n"
+            f"![{figure} against wall time](ladder.png)\n")
+        if out.exists():
+            shutil.rmtree(out)
+        tmp.rename(out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def _plot(ladder: dict[str, Any], figure: str, path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = ladder["rows"]
+    fig, ax = plt.subplots(figsize=(7, 4))
+    floor = 1e-6  # the reference's own error is 0: drawn at the floor of the log axis
+    for r in rows:
+        e = r.get("errors", {}).get(figure)
+        if not e or e["value"] is None:
+            continue
+        y = max(e["value"], floor)
+        ax.errorbar(r["wall_s"], y, yerr=e["ci"] or 0.0, fmt="o", capsize=3)
+        ax.annotate(f"{r['stage']}: {r['level']}"[:40], (r["wall_s"], y), fontsize=6,
+                    xytext=(4, 4), textcoords="offset points")
+    front = [rows[i] for i in pareto(rows, figure)]
+    ax.plot([r["wall_s"] for r in front],
+            [max(r["errors"][figure]["value"], floor) for r in front], "k--", lw=0.8,
+            label="Pareto front")
+    ax.set(xscale="log", yscale="log", xlabel="wall time per run (s, warm median)",
+           ylabel=f"{figure} against the reference", title=f"Speed against error: "
+           f"{ladder['scenario']}")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

@@ -1,0 +1,82 @@
+"""The fidelity ladder measures each level's error against the reference; where the error is
+known analytically the ladder finds it (issue 9)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from chiptwin import stages
+from chiptwin.config import ScenarioError, load_scenario
+from chiptwin.ladder import pareto, plan, reference_levels, run_ladder, with_levels, write_ladder
+from tests.conftest import SCENARIOS
+
+CHEAP_REFERENCE = {"kinetics": "closed_form", "photons": "expected", "optics": "psf",
+                   "dsp": "float"}
+
+
+@pytest.fixture(scope="module")
+def ladder(tmp_path_factory):
+    from tests.conftest import SMALL
+
+    path = tmp_path_factory.mktemp("ladder") / "small.toml"
+    path.write_text(SMALL)
+    s = load_scenario(path)
+    return s, run_ladder(s, replicates=2, reference=CHEAP_REFERENCE)
+
+
+def test_na2_error_is_the_missing_cross_talk_share(ladder):
+    """na2 puts a site's light on its own diode only; psf spreads it. Against the expected-level
+    reference the ladder's signal error is exactly max_i |Σ_j C_na2[p_i, j] / Σ_j C_psf[p_i, j]
+    − 1| over the site pixels p_i (the coupling matrices' row sums; pure light, dark removed)."""
+    s, lad = ladder
+    idx = stages.site_pixel_indices(s)
+    psf = stages.coupling(with_levels(s, {"optics": "psf"}))[idx].sum(axis=1)
+    na2 = stages.coupling(with_levels(s, {"optics": "na2"}))[idx].sum(axis=1)
+    analytic = float(np.max(np.abs(na2 / psf - 1)))
+    row = next(r for r in lad["rows"] if r["stage"] == "optics" and r["level"] == "na2")
+    assert analytic > 1e-6
+    assert row["errors"]["signal_rel"]["value"] == pytest.approx(analytic, rel=1e-6)
+
+
+def test_reference_row_has_zero_error_and_unit_speedup(ladder):
+    _, lad = ladder
+    ref = lad["rows"][0]
+    assert ref["stage"] == "reference" and ref["speedup"] == pytest.approx(1.0)
+    assert all(e["value"] == 0 for e in ref["errors"].values())
+    timed = [r for r in lad["rows"] if "wall_s" in r]
+    assert all(r["wall_s"] > 0 for r in timed)
+
+
+def test_levels_the_scene_refuses_are_skipped_with_the_reason(ladder):
+    _, lad = ladder
+    fixed = next(r for r in lad["rows"] if r["stage"] == "dsp" and r["level"] == "fixed")
+    assert "no ADC codes" in fixed["skipped"]
+
+
+def test_reference_is_the_most_faithful_level_the_scene_accepts():
+    s = load_scenario(SCENARIOS / "atp_glow.toml")
+    ref = reference_levels(s)
+    assert ref["kinetics"] == "closed_form"  # the cascade models pyrosequencing only
+    assert ref["photons"] == "events" and ref["optics"] == "psf"
+    assert [r.stage for r in plan(s)][0] == "reference"
+
+
+def test_outputs_and_pareto_front(ladder, tmp_path):
+    _, lad = ladder
+    write_ladder(lad, tmp_path / "out")
+    saved = json.loads((tmp_path / "out" / "ladder.json").read_text())
+    assert saved["rows"][0]["stage"] == "reference"
+    assert (tmp_path / "out" / "ladder.png").stat().st_size > 0
+    front = pareto(lad["rows"], "snr_rel")
+    timed = [i for i, r in enumerate(lad["rows"]) if "wall_s" in r]
+    fastest = min(timed, key=lambda i: lad["rows"][i]["wall_s"])
+    assert fastest in front and 0 in front  # the fastest, and the zero-error reference
+
+
+def test_one_replicate_is_refused(ladder):
+    s, _ = ladder
+    with pytest.raises(ScenarioError, match="--replicates"):
+        run_ladder(s, replicates=1)
