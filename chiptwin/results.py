@@ -40,20 +40,22 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     rc = stages.site_pixels(s)
     idx = stages.site_pixel_indices(s)
     n_avg = s.chip.dsp.average_frames
+    cols = out.columns(idx)
     arrays: dict[str, np.ndarray] = {
         "block_t_s": out.block_t_s, "site_pixel_index": idx,
-        "site_signal_e": out.value_e[:, idx].T / 1.0,
-        "pixel_photons": scene.pix_photons, "site_photons": scene.site_photons,
+        "site_signal_e": out.value_e[:, cols].T / 1.0,
+        "site_pixel_photons": scene.coupling[idx] @ scene.site_photons,
+        "site_photons": scene.site_photons,
     }
     summary: dict[str, Any] = {}
     if s.assay.kind == "pyrosequencing":
         sites = _pyro_sites(s, out, idx, summary, arrays)
     else:
         edges = np.array([s.assay.start_s, s.run.duration_s])
-        sums, var = window_sums(out.block_t_s, out.value_e, out.var_e2, out.dark_var_e2, n_avg,
-                                edges, light_decay_per_s(s))
-        sites = _site_rows(s, rc, sums[0, idx], np.sqrt(var[0, idx]), out, idx)
-        for site, sd in zip(sites, np.sqrt(var[0, idx]), strict=True):
+        sums, var = window_sums(out.block_t_s, out.value_e[:, cols], out.var_e2[:, cols],
+                                out.dark_var_e2[idx], n_avg, edges, light_decay_per_s(s))
+        sites = _site_rows(s, rc, sums[0], np.sqrt(var[0]), out, idx)
+        for site, sd in zip(sites, np.sqrt(var[0]), strict=True):
             site["signal_sd_e"] = float(sd)  # the window total is itself the estimate
     if out.saturation_s is not None:
         for i, site in enumerate(sites):
@@ -62,9 +64,11 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
             site["first_saturation_s"] = float(t[np.isfinite(t)][0]) if site[
                 "saturated_frames"] else None
     summary["sites"] = sites
-    peak = int(np.argmax(out.value_e[:, idx].sum(axis=1))) if len(out.value_e) else 0
-    arrays["peak_frame_e"] = (out.value_e[peak] if len(out.value_e) else
-                              np.zeros(s.chip.n_pixels)).reshape(s.chip.rows, s.chip.cols)
+    peak, frame = out.peak_block, out.peak_frame_e
+    if frame is None:  # every pixel kept: the brightest output is one of them
+        peak = int(np.argmax(out.value_e[:, cols].sum(axis=1))) if len(out.value_e) else 0
+        frame = out.value_e[peak] if len(out.value_e) else np.zeros(s.chip.n_pixels)
+    arrays["peak_frame_e"] = frame.reshape(s.chip.rows, s.chip.cols)
     arrays["peak_frame_t_s"] = np.array(out.block_t_s[peak] if len(out.block_t_s) else 0.0)
     arrays["memory_t_s"] = np.array([t for t, _ in out.chip.occupancy]) / 1e9
     arrays["memory_frames"] = np.array([o for _, o in out.chip.occupancy])
@@ -93,8 +97,9 @@ def _site_rows(s: Scenario, rc: np.ndarray, signal: np.ndarray, noise: np.ndarra
     is the expected value, so its SNR is a property of the chip, not of one noisy frame.
     """
     p, a = snr(signal, noise)
-    values = out.mean_e[:, idx] if len(out.mean_e) else np.zeros((1, len(idx)))
-    frame_snr = (values**2 / (out.var_e2[:, idx] + out.dark_var_e2[idx]) if len(out.value_e)
+    cols = out.columns(idx)
+    values = out.mean_e[:, cols] if len(out.mean_e) else np.zeros((1, len(idx)))
+    frame_snr = (values**2 / (out.var_e2[:, cols] + out.dark_var_e2[idx]) if len(out.value_e)
                  else np.zeros_like(values))
     masked = np.where(peak_window[:, None], values, -np.inf) if peak_window is not None else values
     peak = np.argmax(masked, axis=0)
@@ -122,8 +127,9 @@ def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
     nucs, n_inc = stages.flow_program(s)
     edges = a.start_s + a.flow_period_s * np.arange(a.n_flows + 1)
     n_avg, decay = s.chip.dsp.average_frames, light_decay_per_s(s)
-    sums, var = window_sums(out.block_t_s, out.value_e, out.var_e2, out.dark_var_e2, n_avg,
-                            edges, decay)
+    cols = out.columns(idx)
+    sums, var = window_sums(out.block_t_s, out.value_e[:, cols], out.var_e2[:, cols],
+                            out.dark_var_e2[idx], n_avg, edges, decay)
     # a_i²: each window's weight on the (common) dark reference, for unit dark variance
     zero = np.zeros((len(out.block_t_s), 1))
     _, a2 = window_sums(out.block_t_s, zero, zero, np.ones(1), n_avg, edges, decay)
@@ -131,10 +137,10 @@ def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
     ones = np.flatnonzero(key_n == 1)
     coherent = np.sqrt(a2[ones, 0]).sum() / len(ones)
     flow_values, calls, signal, noise, level_sd = [], [], [], [], []
-    for j in idx:
-        independent = var[ones, j] - a2[ones, 0] * out.dark_var_e2[j]
+    for j, pix in enumerate(idx):
+        independent = var[ones, j] - a2[ones, 0] * out.dark_var_e2[pix]
         level_sd.append(float(np.sqrt(independent.sum() / len(ones) ** 2
-                                      + coherent**2 * out.dark_var_e2[j])))
+                                      + coherent**2 * out.dark_var_e2[pix])))
         ref = float(np.mean(sums[ones, j]))
         norm = pyro.normalise_flows(sums[:, j], key_n) if ref > 0 else np.zeros(a.n_flows)
         flow_values.append(norm)
@@ -148,11 +154,11 @@ def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
     summary["flows"] = [
         {"nucleotide": nucs[f], "value": float(flow_values[0][f]),
          "called_n": int(calls[0][1][f]), "true_n": int(n_inc[f]),
-         "signal_e": float(sums[f, idx[0]]), "noise_e": float(np.sqrt(var[f, idx[0]]))}
+         "signal_e": float(sums[f, 0]), "noise_e": float(np.sqrt(var[f, 0]))}
         for f in range(a.n_flows)
     ]
     arrays["flow_values"] = np.array(flow_values)
-    arrays["flow_sums_e"] = sums[:, idx].T
+    arrays["flow_sums_e"] = sums.T
     flow_of_block = np.searchsorted(edges, out.block_t_s, side="right") - 1
     sites = _site_rows(s, stages.site_pixels(s), np.array(signal), np.array(noise), out, idx,
                        peak_window=np.isin(flow_of_block, ones))

@@ -8,6 +8,8 @@ named random stream (:func:`stage_rng`), so adding a stage never shifts another'
 
 from __future__ import annotations
 
+import os
+import tempfile
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
@@ -21,7 +23,7 @@ from chiptwin.chip import ChipRun, Recorder, Schedule, simulate_chip
 from chiptwin.config import Scenario, load_scenario
 from chiptwin.config.consistency import check_consistency, scenario_warnings
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
-from chiptwin.dsp.pipeline import Frame, Pipeline, chain_for
+from chiptwin.dsp.pipeline import BlockOut, Frame, Pipeline, chain_for
 from chiptwin.results import detect, light_decay_per_s
 from chiptwin.scene import ChainOutput, PixelFrames, Scene, StageTimer, stage_rng
 
@@ -34,6 +36,9 @@ class Result:
     arrays: dict[str, np.ndarray]
     trace: Recorder
     scenario: Scenario
+    #: ``[run] save_frames``: every frame as read, a ``.npy`` file in the temporary folder
+    #: (:func:`chiptwin.report.write_outputs` moves it into the output folder as ``frames.npy``).
+    frames_path: Path | None = None
 
 
 def run(
@@ -76,8 +81,9 @@ def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
     t_start = time.perf_counter() if t_start is None else t_start
     timer = timer or StageTimer()
     rec = Recorder()
+    frames_path = _frames_file() if getattr(s.run, "save_frames", False) else None
     out = simulate(s, scene, s.run.fidelity.photons, stage_rng(s.scenario.seed, "pixel"), rec,
-                   timer, progress)
+                   timer, progress, sites=stages.site_pixel_indices(s), frames_path=frames_path)
     with timer("detection"):
         summary, arrays = detect(s, scene, out)
         if s.assay.kind == "flux":
@@ -93,7 +99,14 @@ def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
         snr_definition=SNR_DEFINITION,
         warnings=scenario_warnings(s),
     )
-    return Result(summary=summary, arrays=arrays, trace=rec, scenario=s)
+    return Result(summary=summary, arrays=arrays, trace=rec, scenario=s, frames_path=frames_path)
+
+
+def _frames_file() -> Path:
+    """A fresh ``.npy`` path in the temporary folder (``TMPDIR``) for the frames of one run."""
+    fd, name = tempfile.mkstemp(prefix="chiptwin-frames-", suffix=".npy")
+    os.close(fd)
+    return Path(name)
 
 
 def fidelity_used(s: Scenario) -> dict[str, str]:
@@ -107,7 +120,9 @@ def fidelity_used(s: Scenario) -> dict[str, str]:
 
 
 def prepare(s: Scenario, timer: StageTimer | None = None) -> Scene:
-    """Kinetics and optics: photons per site and per pixel in every integration window."""
+    """Kinetics and optics: photons per site in every integration window, and the site-to-pixel
+    coupling. The light per pixel (``coupling @ site_photons``) is made later, a block of frames
+    at a time, as the chip model reaches them (:meth:`Scene.pixel_block`)."""
     timer = timer or StageTimer()
     sch = Schedule.from_chip(s.chip, s.run.duration_s)
     with timer("kinetics"):
@@ -116,8 +131,7 @@ def prepare(s: Scenario, timer: StageTimer | None = None) -> Scene:
         site_photons = source.photons(edges)[:, ::2]
     with timer("optics"):
         coupling = stages.coupling(s)
-        pix_photons = coupling @ site_photons
-    return Scene(sch, source, site_photons, coupling, pix_photons, chip_sensor(s))
+    return Scene(sch, source, site_photons, coupling, chip_sensor(s))
 
 
 def chip_sensor(s: Scenario) -> stages.SensorModel:
@@ -129,29 +143,40 @@ def chip_sensor(s: Scenario) -> stages.SensorModel:
 
 def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Generator,
              rec: Recorder, timer: StageTimer | None = None, progress=None,
-             keep_codes: bool = False) -> ChainOutput:
-    """Pixel → ADC → memory → DSP through the chip model, for photons per pixel per frame.
+             keep_codes: bool = False, sites: np.ndarray | None = None,
+             frames_path: Path | None = None) -> ChainOutput:
+    """Pixel → ADC → memory → DSP through the chip model, for the scene's light.
 
-    What no random draw enters, the expected charge and CMS moments of every frame, is computed
-    once per scene (:meth:`Scene.pixel_frames`) and shared by its replicates. At the ``binned``
-    and ``events`` levels the codes are drawn ahead, a batch of frames at a time and in frame
-    order (:class:`_FrameReader`), so the draws are those of reading frame by frame. The fused
-    sampling and conversion is booked to the ``pixel`` stage; ``adc`` counts the clipped samples.
+    The light per pixel and what no random draw enters (expected charge, CMS moments) are made a
+    block of frames at a time as the chip model reaches them (:meth:`Scene.pixel_block`; kept for
+    the replicates of a small scene). At the ``binned`` and ``events`` levels the codes of a
+    block are drawn ahead in frame order (:class:`_FrameReader`), one stream per chunk of
+    :data:`chiptwin.pixel.CHUNK_PIXELS` pixels, the chunks on every core. Light, moments and
+    draws are booked to the ``pixel`` stage; ``adc`` counts the clipped samples.
+
+    ``sites`` (pixel indices) keeps the DSP outputs at those pixels only, and the whole output
+    frame where they sum highest; None keeps every pixel's. ``frames_path`` streams every frame
+    as read (codes, or the expected CMS difference at the ``expected`` level) to a ``.npy`` file.
     """
     timer = timer or StageTimer()
-    with timer("pixel"):
-        expected = scene.pixel_frames(s.chip.timing.t_int_s, s.chip.adc.gain_error)
-    reader = _FrameReader(s, scene, expected, photons_level, rng, timer)
-    pipeline = _TimedPipeline(_dsp_level(s, keep_codes), timer)
+    reader = _FrameReader(s, scene, photons_level, rng, timer, frames_path)
+    keep = None if sites is None else np.unique(np.asarray(sites, dtype=np.int64))
+    pipeline = _TimedPipeline(_dsp_level(s, keep_codes), timer, keep, sites,
+                              scene.sensor.e_per_lsb)
     inner = ("pixel", "adc", "dsp")
     inner_before = sum(timer.seconds[k] for k in inner)
     t0 = time.perf_counter()
-    chip = simulate_chip(scene.sch, reader, pipeline, rec, progress)
+    try:
+        chip = simulate_chip(scene.sch, reader, pipeline, rec, progress)
+    finally:
+        reader.close()
     inner_s = sum(timer.seconds[k] for k in inner) - inner_before
     timer.seconds["memory"] += time.perf_counter() - t0 - inner_s  # the event engine itself
-    out = _chain_output(chip, scene.sch, pipeline.inner, scene.sensor.e_per_lsb)
+    out = _chain_output(chip, scene.sch, pipeline.inner, scene.sensor.e_per_lsb, keep,
+                        scene.n_pixels)
+    out.peak_frame_e, out.peak_block = pipeline.peak_frame_e, pipeline.peak_block
     out.adc_clipped_samples = reader.clipped
-    out.full_well_pixel_frames = expected.full_well_pixel_frames
+    out.full_well_pixel_frames = reader.full_well
     if reader.events is not None:
         events = reader.events
         out.saturation_s = np.array(events.saturation_s).reshape(-1, len(events.pixels))
@@ -169,77 +194,121 @@ def _dsp_level(s: Scenario, keep_codes: bool) -> Pipeline:
                     keep_codes=keep_codes)
 
 
-#: ADC samples drawn ahead at most, per batch of frames (bounds the codes held to 8 MiB).
-_BATCH_SAMPLES = 1 << 20
-
-
 class _FrameReader:
     """``read_frame(k)`` of the chip model: frame ``k`` as the ADCs deliver it.
 
-    Its moments are rows of the scene's :class:`~chiptwin.scene.PixelFrames`. Its codes (at the
-    ``binned`` and ``events`` levels) come from a batch of frames drawn ahead in one call of
-    :func:`chiptwin.pixel.binned_codes`: the chip model reads frames in order, each once, so
-    drawing ``k … k + batch − 1`` when frame ``k`` is first asked for draws what reading them one
-    by one would. At the ``events`` level the site pixels' charge is counted by
+    The chip model reads frames in order, each once. When frame ``k`` is first asked for, the
+    block of frames ``k … k + B − 1`` (``B`` = :attr:`Scene.block_frames`) is made: its moments
+    (:meth:`Scene.pixel_block`) and, at the ``binned`` and ``events`` levels, its codes in one
+    call of :func:`chiptwin.pixel.binned_codes`, drawing what reading the frames one by one
+    would. At the ``events`` level the site pixels' charge is counted by
     :class:`~chiptwin.stages.EventPixels` (its own stream) and replaces their Poisson draws.
+    Only the current block is held (and what the frame memory still holds of earlier ones).
     """
 
-    def __init__(self, s: Scenario, scene: Scene, expected: PixelFrames, photons_level: str,
-                 rng: np.random.Generator, timer: StageTimer) -> None:
-        self.s, self.scene, self.expected, self.rng, self.timer = s, scene, expected, rng, timer
+    def __init__(self, s: Scenario, scene: Scene, photons_level: str, rng: np.random.Generator,
+                 timer: StageTimer, frames_path: Path | None = None) -> None:
+        self.s, self.scene, self.timer = s, scene, timer
         self.sampled = photons_level in ("binned", "events")
+        self.streams = pixel.chunk_streams(rng, scene.n_pixels) if self.sampled else []
         self.events = None
         if photons_level == "events":
             self.events = stages.EventPixels(
                 scene.source, scene.coupling, stages.site_pixel_indices(s), scene.sensor,
                 stage_rng(s.scenario.seed, "events"))
-        samples_per_frame = 2 * scene.sensor.cms_samples * scene.sensor.gain_map.size
-        self.batch = max(1, _BATCH_SAMPLES // max(samples_per_frame, 1))
-        self.codes = np.empty((0, 0, 0), np.int64)  # the batch drawn last
-        self.first = 0  # its first frame
+        self.first, self.stop = 0, 0  # the block made last: frames first … stop − 1
+        self.moments: PixelFrames | None = None
+        self.codes: np.ndarray | None = None
         self.clipped = 0  # ADC samples at code 0 or full scale
+        self.full_well = 0  # pixel-frames whose expected charge reaches the full well
+        self.saved = _FrameFile(frames_path, s, scene, self.sampled) if frames_path else None
 
     def __call__(self, k: int) -> Frame:
-        codes = None
-        if self.sampled:
-            if not self.first <= k < self.first + len(self.codes):
-                self._draw(k)
-            codes = self.codes[k - self.first]
-        return Frame(codes=codes, mean=self.expected.cds_mean_lsb[k],
-                     var=self.expected.cds_var_lsb2[k])
+        if not self.first <= k < self.stop:
+            self._make(k)
+        i = k - self.first
+        codes = self.codes[i] if self.codes is not None else None
+        return Frame(codes=codes, mean=self.moments.cds_mean_lsb[i],
+                     var=self.moments.cds_var_lsb2[i])
 
-    def _draw(self, k: int) -> None:
-        """Draw the codes of frames ``k …`` (the next batch) and count the clipped samples."""
-        following = self.first + len(self.codes)
-        if k != following:
-            raise RuntimeError(f"frame {k} read out of order: the next one is {following}")
-        stop = min(k + self.batch, self.scene.sch.n_frames)
-        sensor, adc = self.scene.sensor, self.s.chip.adc
+    def _make(self, k: int) -> None:
+        """Make the block of frames starting at ``k`` (the next one)."""
+        if k != self.stop:
+            raise RuntimeError(f"frame {k} read out of order: the next one is {self.stop}")
+        stop = min(k + self.scene.block_frames, self.scene.sch.n_frames)
         with self.timer("pixel"):
-            pixels, counted = (), None
-            if self.events is not None:
-                pixels = self.events.pixels
-                counted = np.array([self.events.collect(*self.scene.sch.window_s(j))
-                                    for j in range(k, stop)])
-            self.codes = pixel.binned_codes(
-                self.rng, self.expected.mean_e[k:stop], full_well_e=sensor.full_well_e,
-                ktc_e=sensor.ktc_e, read_noise_e=sensor.read_noise_e,
-                n_samples=sensor.cms_samples, true_cds=sensor.true_cds,
-                conversion_gain_uV_per_e=sensor.conversion_gain_uV_per_e,
-                pedestal_V=sensor.pedestal_V, bits=adc.bits, v_min_V=adc.v_min_V,
-                v_max_V=adc.v_max_V, offset_lsb=adc.offset_error_lsb, gain_error=adc.gain_error,
-                counted_pixels=pixels, counted_e=counted)
-            self.first = k
-        with self.timer("adc"):
-            top = 2**adc.bits - 1
-            self.clipped += int(np.count_nonzero((self.codes == 0) | (self.codes == top)))
+            self.moments = self.scene.pixel_block(self.s.chip.timing.t_int_s,
+                                                  self.s.chip.adc.gain_error, k, stop)
+            self.full_well += self.moments.full_well_pixel_frames
+            if self.sampled:
+                self.codes = self._draw(k, stop)
+        if self.sampled:
+            with self.timer("adc"):
+                top = 2**self.s.chip.adc.bits - 1
+                self.clipped += int(np.count_nonzero((self.codes == 0) | (self.codes == top)))
+        self.first, self.stop = k, stop
+        if self.saved is not None:
+            self.saved.write(k, self.codes if self.sampled else self.moments.cds_mean_lsb)
+
+    def _draw(self, k: int, stop: int) -> np.ndarray:
+        sensor, adc = self.scene.sensor, self.s.chip.adc
+        pixels, counted = (), None
+        if self.events is not None:
+            pixels = self.events.pixels
+            counted = np.array([self.events.collect(*self.scene.sch.window_s(j))
+                                for j in range(k, stop)])
+        return pixel.binned_codes(
+            self.streams, self.moments.mean_e, full_well_e=sensor.full_well_e,
+            ktc_e=sensor.ktc_e, read_noise_e=sensor.read_noise_e,
+            n_samples=sensor.cms_samples, true_cds=sensor.true_cds,
+            conversion_gain_uV_per_e=sensor.conversion_gain_uV_per_e,
+            pedestal_V=sensor.pedestal_V, bits=adc.bits, v_min_V=adc.v_min_V,
+            v_max_V=adc.v_max_V, offset_lsb=adc.offset_error_lsb, gain_error=adc.gain_error,
+            counted_pixels=pixels, counted_e=counted)
+
+    def close(self) -> None:
+        if self.saved is not None:
+            self.saved.close()
+
+
+class _FrameFile:
+    """Every frame as read, streamed to a ``.npy`` file block by block (``[run] save_frames``).
+
+    ``(n_frames, 2M, rows · cols)`` ADC codes (unsigned, the narrowest type that holds the
+    ADC's bits) at the ``binned`` and ``events`` levels; ``(n_frames, rows · cols)`` expected
+    CMS differences (LSB, float64) at the ``expected`` level. Frames the memory dropped are
+    written too: the file is what the ADCs delivered, the DSP read all the others.
+    """
+
+    def __init__(self, path: Path, s: Scenario, scene: Scene, sampled: bool) -> None:
+        n, p = scene.sch.n_frames, scene.n_pixels
+        if sampled:
+            dtype = np.uint16 if s.chip.adc.bits <= 16 else np.uint32
+            shape: tuple[int, ...] = (n, 2 * scene.sensor.cms_samples, p)
+        else:
+            dtype, shape = np.float64, (n, p)
+        self.array = np.lib.format.open_memmap(path, mode="w+", dtype=dtype, shape=shape)
+
+    def write(self, k: int, block: np.ndarray) -> None:
+        self.array[k:k + len(block)] = block
+        self.array.flush()
+
+    def close(self) -> None:
+        self.array.flush()
+        del self.array
 
 
 class _TimedPipeline:
-    """Wraps the DSP so its wall time is booked to the ``dsp`` stage."""
+    """Wraps the DSP: its wall time is booked to the ``dsp`` stage, and each output is cut to the
+    kept pixels (``keep``; None = all) as it leaves the DSP, so the run holds outputs at those
+    pixels only, plus the one whole output frame where ``sites`` sum highest."""
 
-    def __init__(self, inner: Pipeline, timer: StageTimer) -> None:
-        self.inner, self.timer = inner, timer
+    def __init__(self, inner: Pipeline, timer: StageTimer, keep: np.ndarray | None = None,
+                 sites: np.ndarray | None = None, e_per_lsb: float = 1.0) -> None:
+        self.inner, self.timer, self.keep, self.e_per_lsb = inner, timer, keep, e_per_lsb
+        self.sites = None if sites is None else np.asarray(sites, dtype=np.int64)
+        self.peak_frame_e: np.ndarray | None = None
+        self.peak_block, self._peak_sum, self._n = 0, -np.inf, 0
 
     def dark(self, frames):
         with self.timer("dsp"):
@@ -247,11 +316,22 @@ class _TimedPipeline:
 
     def block(self, frames):
         with self.timer("dsp"):
-            return self.inner.block(frames)
+            out = self.inner.block(frames)
+            if self.sites is not None:
+                value_e = out.value * self.e_per_lsb
+                total = value_e[self.sites].sum()
+                if total > self._peak_sum or self.peak_frame_e is None:
+                    self.peak_frame_e, self.peak_block, self._peak_sum = value_e, self._n, total
+            self._n += 1
+            if self.keep is None:
+                return out
+            return BlockOut(value=out.value[self.keep], mean=out.mean[self.keep],
+                            var=out.var[self.keep])
 
 
-def _chain_output(chip: ChipRun, sch: Schedule, dsp: Pipeline, e_per_lsb: float) -> ChainOutput:
-    n_pix = len(dsp.dark_mean) if dsp.dark_mean is not None else 0
+def _chain_output(chip: ChipRun, sch: Schedule, dsp: Pipeline, e_per_lsb: float,
+                  keep: np.ndarray | None, n_pixels: int) -> ChainOutput:
+    n_pix = n_pixels if keep is None else len(keep)
     mids = [np.mean([sum(sch.window_s(k)) / 2 for k in ks]) for ks, _ in chip.outputs]
 
     def stack(name: str) -> np.ndarray:
@@ -261,7 +341,7 @@ def _chain_output(chip: ChipRun, sch: Schedule, dsp: Pipeline, e_per_lsb: float)
         chip=chip, block_t_s=np.array(mids), value_e=stack("value") * e_per_lsb,
         mean_e=stack("mean") * e_per_lsb, var_e2=stack("var") * e_per_lsb**2,
         dark_var_e2=(dsp.dark_var if dsp.dark_var is not None else np.zeros(0)) * e_per_lsb**2,
-        dsp=dsp,
+        dsp=dsp, pixels=keep,
     )
 
 
@@ -278,12 +358,12 @@ def _required_flux(s: Scenario, idx: np.ndarray) -> float:
     lit = prepare(unit)
     figures = []
     for flux in (1.0, 0.0):
-        scene = replace(lit, pix_photons=lit.pix_photons * flux)
+        scene = replace(lit, site_photons=lit.site_photons * flux)
         out = simulate(unit, scene, "expected", stage_rng(s.scenario.seed, "required_flux"),
-                       Recorder())  # the expected level draws nothing
-        sig, var = window_sums(out.block_t_s, out.mean_e, out.var_e2, out.dark_var_e2, n, edges,
-                               light_decay_per_s(s))
-        figures.append((sig[0, idx[0]], var[0, idx[0]]))
+                       Recorder(), sites=idx[:1])  # the expected level draws nothing
+        sig, var = window_sums(out.block_t_s, out.mean_e, out.var_e2, out.dark_var_e2[idx[:1]],
+                               n, edges, light_decay_per_s(s))
+        figures.append((sig[0, 0], var[0, 0]))
     (a, v1), (_, v0) = figures
     needed = required_signal_e(s.run.detection_snr_power, v0, (v1 - v0) / a)
     return float(needed / a)

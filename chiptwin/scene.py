@@ -65,43 +65,124 @@ class PixelFrames:
     full_well_pixel_frames: int
 
 
+#: Bytes of per-frame pixel moments a scene keeps for its replicates: below this the expected charge
+#: and CMS moments of every pixel in every frame (3 float64 arrays, n_frames × n_pixels) are
+#: computed once and shared; above it (a large array, a long run) they are computed a block of
+#: frames at a time as the chip model reaches them and then dropped, so memory stays flat in frames.
+MOMENTS_KEPT_BYTES: int = 48 << 20
+
+#: ADC samples per block of frames (reset and signal, all pixels): the frames whose light,
+#: moments and codes are made together, and so the unit of what is held at once (8 MiB of codes).
+BLOCK_SAMPLES: int = 1 << 20
+
+
+def frames_per_block(n_pixels: int, cms_samples: int) -> int:
+    """Frames in one block of :data:`BLOCK_SAMPLES` samples (at least 1)."""
+    return max(1, BLOCK_SAMPLES // max(2 * cms_samples * n_pixels, 1))
+
+
 @dataclass(frozen=True)
 class Scene:
-    """What the chip sees: its schedule, the light per site and per pixel, and its sensor.
+    """What the chip sees: its schedule, the light per site, its coupling to the pixels, its sensor.
 
-    A scene is not changed after :func:`chiptwin.run.prepare` made it (derive another with
-    ``dataclasses.replace``): what is computed from it once (:meth:`pixel_frames`) is kept with
-    it and reused by every replicate that runs on it.
+    The light per pixel is ``coupling @ site_photons``; it is made a block of frames at a time
+    (:meth:`pixel_block`), never held for the whole run unless the scene is small. A scene is not
+    changed after :func:`chiptwin.run.prepare` made it (derive another with
+    ``dataclasses.replace``): what is computed from it once is kept with it and reused by every
+    replicate that runs on it.
     """
 
     sch: Schedule
     source: stages.LightSource
     site_photons: np.ndarray
     coupling: np.ndarray
-    pix_photons: np.ndarray
     sensor: stages.SensorModel
     _memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
-    def pixel_frames(self, t_int_s: float, gain_error: float) -> PixelFrames:
-        """:func:`pixel_frames` of this scene, computed at the first call and kept."""
+    @property
+    def n_pixels(self) -> int:
+        return int(self.coupling.shape[0])
+
+    @property
+    def block_frames(self) -> int:
+        """Frames per block (:func:`frames_per_block`)."""
+        return frames_per_block(self.n_pixels, self.sensor.cms_samples)
+
+    def photons_block(self, start: int, stop: int) -> np.ndarray:
+        """Photons per pixel in frames ``start … stop − 1``: ``(stop − start, n_pixels)``."""
+        return np.ascontiguousarray((self.coupling @ self.site_photons[:, start:stop]).T)
+
+    @property
+    def pix_photons(self) -> np.ndarray:
+        """Photons per pixel per frame, ``(n_pixels, n_frames)``, made block by block (the whole
+        run at once: for small scenes, tests and plots, not for the chip model's path)."""
+        n, b = self.site_photons.shape[1], self.block_frames
+        blocks = [self.photons_block(k, min(k + b, n)) for k in range(0, n, b)]
+        return np.concatenate(blocks).T if blocks else np.zeros((self.n_pixels, 0))
+
+    def pixel_block(self, t_int_s: float, gain_error: float, start: int, stop: int
+                    ) -> PixelFrames:
+        """:func:`pixel_frames` of frames ``start … stop − 1``.
+
+        ``start`` is a multiple of :attr:`block_frames` and ``stop`` at most one block later, so
+        the numbers are the same whether the scene keeps every block (small scenes: computed at
+        the first call, shared by replicates) or computes each one when asked (large scenes).
+        """
+        if start % self.block_frames or stop - start > self.block_frames:
+            raise ValueError(f"frames {start}…{stop}: not within one block of {self.block_frames}")
+        n_frames = self.site_photons.shape[1]
+        if 3 * 8 * self.n_pixels * n_frames > MOMENTS_KEPT_BYTES:
+            return pixel_frames(self, t_int_s, gain_error, start, stop)
         key = ("pixel_frames", t_int_s, gain_error)
         if key not in self._memo:
-            self._memo[key] = pixel_frames(self, t_int_s, gain_error)
-        return self._memo[key]
+            self._memo[key] = _all_blocks(self, t_int_s, gain_error)
+        whole = self._memo[key]
+        return PixelFrames(whole.mean_e[start:stop], whole.cds_mean_lsb[start:stop],
+                           whole.cds_var_lsb2[start:stop],
+                           int(np.count_nonzero(whole.mean_e[start:stop]
+                                                >= self.sensor.full_well_e)))
+
+    def pixel_frames(self, t_int_s: float, gain_error: float) -> PixelFrames:
+        """Every frame's :func:`pixel_frames`, block by block (kept for a small scene)."""
+        key = ("pixel_frames", t_int_s, gain_error)
+        if key in self._memo:
+            return self._memo[key]
+        whole = _all_blocks(self, t_int_s, gain_error)
+        if 3 * 8 * self.n_pixels * self.site_photons.shape[1] <= MOMENTS_KEPT_BYTES:
+            self._memo[key] = whole
+        return whole
 
 
-def pixel_frames(scene: Scene, t_int_s: float, gain_error: float) -> PixelFrames:
-    """Expected charge and CMS moments of every pixel in every frame of ``scene``.
+def _all_blocks(scene: Scene, t_int_s: float, gain_error: float) -> PixelFrames:
+    """:func:`pixel_frames` of every block of ``scene``, stacked; read-only."""
+    n, b = scene.site_photons.shape[1], scene.block_frames
+    parts = [pixel_frames(scene, t_int_s, gain_error, k, min(k + b, n)) for k in range(0, n, b)]
+    if not parts:
+        empty = np.zeros((0, scene.n_pixels))
+        parts = [PixelFrames(empty, empty, empty, 0)]
+    arrays = [np.concatenate([getattr(p, name) for p in parts])
+              for name in ("mean_e", "cds_mean_lsb", "cds_var_lsb2")]
+    for arr in arrays:
+        arr.flags.writeable = False  # shared by every replicate of the scene
+    return PixelFrames(*arrays, full_well_pixel_frames=sum(p.full_well_pixel_frames
+                                                           for p in parts))
+
+
+def pixel_frames(scene: Scene, t_int_s: float, gain_error: float, start: int = 0,
+                 stop: int | None = None) -> PixelFrames:
+    """Expected charge and CMS moments of every pixel in frames ``start … stop − 1`` of ``scene``.
 
     Parameters
     ----------
     scene : Scene
-        Photons per pixel per frame and the sensor.
+        Light per site, coupling and the sensor.
     t_int_s : float
         Integration time (the dark charge is dark current × ``t_int_s``). Unit: s.
     gain_error : float
         The ADC's fractional gain error (``chip.adc.gain_error``): codes per electron are
         ``(1 + gain_error) / e_per_lsb``.
+    start, stop : int
+        The frames (all by default).
 
     Notes
     -----
@@ -109,7 +190,8 @@ def pixel_frames(scene: Scene, t_int_s: float, gain_error: float) -> PixelFrames
     :func:`chiptwin.pixel.expected_frame` called on one frame at a time, so the numbers are those.
     """
     sensor = scene.sensor
-    photons = np.ascontiguousarray(scene.pix_photons.T)
+    stop = scene.site_photons.shape[1] if stop is None else stop
+    photons = scene.photons_block(start, stop)
     dark_e = sensor.dark_e_per_s * t_int_s
     mean_e = pixel.mean_electrons(photons, sensor.qe, sensor.gain_map, dark_e)
     cds_e, cds_var_e2 = pixel.expected_frame(
@@ -118,11 +200,9 @@ def pixel_frames(scene: Scene, t_int_s: float, gain_error: float) -> PixelFrames
     to_lsb = (1.0 + gain_error) / sensor.e_per_lsb
     read_lsb = sensor.read_noise_e / sensor.e_per_lsb * (1.0 + gain_error)
     quant_var = 2.0 * pixel.quantization_var_of_mean(sensor.cms_samples, read_lsb)
-    arrays = (mean_e, cds_e * to_lsb, cds_var_e2 * to_lsb**2 + quant_var)
-    for arr in arrays:
-        arr.flags.writeable = False  # shared by every replicate of the scene
     full = int(np.count_nonzero(mean_e >= sensor.full_well_e))
-    return PixelFrames(*arrays, full_well_pixel_frames=full)
+    return PixelFrames(mean_e, cds_e * to_lsb, cds_var_e2 * to_lsb**2 + quant_var,
+                       full_well_pixel_frames=full)
 
 
 @dataclass
@@ -131,6 +211,10 @@ class ChainOutput:
 
     Electrons are read back from codes at the ADC's nominal gain, as the chip itself would: an
     ADC gain error (``chip.adc.gain_error``) shows up as a scale error of every figure.
+
+    ``value_e``, ``mean_e`` and ``var_e2`` are ``(n_blocks, n_kept)``: the DSP outputs at the kept
+    ``pixels`` (sorted indices; None = every pixel). ``dark_var_e2`` covers every pixel.
+    ``peak_frame_e`` is the whole DSP output whose kept pixels sum highest (``peak_block``).
     """
 
     chip: ChipRun
@@ -143,3 +227,15 @@ class ChainOutput:
     saturation_s: np.ndarray | None = None  # events level: (n_frames, n_sites), inf = not full
     adc_clipped_samples: int = 0
     full_well_pixel_frames: int = 0
+    pixels: np.ndarray | None = None
+    peak_frame_e: np.ndarray | None = None
+    peak_block: int = 0
+
+    def columns(self, idx: np.ndarray) -> np.ndarray:
+        """Columns of ``value_e`` (and ``mean_e``, ``var_e2``) holding pixels ``idx``."""
+        if self.pixels is None:
+            return np.asarray(idx)
+        cols = np.searchsorted(self.pixels, idx)
+        if not np.array_equal(self.pixels[np.minimum(cols, len(self.pixels) - 1)], idx):
+            raise KeyError(f"pixels {idx!r} were not kept (kept: {self.pixels!r})")
+        return cols

@@ -176,7 +176,7 @@ def test_scene_computes_its_pixel_frames_once(small_toml):
     run_prepared(s, scene)
     run_prepared(replace(s, scenario=replace(s.scenario, seed=2)), scene)
     assert scene.pixel_frames(s.chip.timing.t_int_s, s.chip.adc.gain_error) is first
-    other = replace(scene, pix_photons=scene.pix_photons * 2.0)
+    other = replace(scene, site_photons=scene.site_photons * 2.0)
     assert other.pixel_frames(s.chip.timing.t_int_s, s.chip.adc.gain_error) is not first
     assert not first.mean_e.flags.writeable  # shared by replicates: never changed in place
 

@@ -38,7 +38,7 @@ from chiptwin.pixel.adc import (
     to_volts,
 )
 from chiptwin.pixel.chain import sensor_chain
-from chiptwin.pixel.frames import binned_codes
+from chiptwin.pixel.frames import CHUNK_PIXELS, binned_codes, chunk_streams
 from chiptwin.pixel.sensor import (
     clipped_poisson_moments,
     conversion_gain_uV_per_e,
@@ -52,9 +52,11 @@ from chiptwin.pixel.sensor import (
 )
 
 __all__ = [
+    "CHUNK_PIXELS",
     "adc_convert",
     "adc_expected",
     "binned_codes",
+    "chunk_streams",
     "clipped_poisson_moments",
     "conversion_gain_uV_per_e",
     "dark_current_e_per_s",

@@ -7,11 +7,19 @@ arithmetic per sample, so the codes are bit for bit those (tested), and ``rng`` 
 state. It is the path of the chip model, which reads a small array over thousands of frames: the
 arguments are checked once per call instead of once per frame, and no Python runs per frame.
 
-For large arrays on every core see :func:`~chiptwin.pixel.chain.sensor_chain` (the same
-statistics from per-chunk streams, not the same draws).
+Large arrays use every core: given one stream per chunk of :data:`CHUNK_PIXELS` pixels
+(:func:`chunk_streams`), each chunk is drawn in frame order from its own stream, the chunks in
+parallel threads (the kernel releases the GIL). Chunk 0's stream is the caller's ``rng``, so an
+array of at most :data:`CHUNK_PIXELS` pixels draws exactly what it drew before chunking; which
+thread draws a chunk changes nothing, so the codes depend on the seed only, never on the thread
+count (tested).
 """
 
 from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -25,8 +33,43 @@ from chiptwin.pixel.sensor import _check_readout
 POISSON_LAM_MAX: float = float(np.iinfo(np.int64).max - np.sqrt(np.iinfo(np.int64).max) * 10)
 
 
+#: Pixels per random stream at the ``binned`` level: the unit of parallel work. A fixed number
+#: (never derived from the thread count), so the streams, and the numbers, depend on the seed only.
+CHUNK_PIXELS: int = 2048
+
+
+def chunk_streams(rng: np.random.Generator, n_pixels: int) -> list[np.random.Generator]:
+    """One stream per chunk of :data:`CHUNK_PIXELS` pixels: ``rng`` itself for chunk 0, then the
+    children of ``rng``'s seed sequence keyed ``(…, c)`` for chunk ``c`` (what
+    ``SeedSequence.spawn`` would give, without changing ``rng``)."""
+    n_chunks = max(1, -(-n_pixels // CHUNK_PIXELS))
+    ss = rng.bit_generator.seed_seq
+    return [rng] + [np.random.default_rng(np.random.SeedSequence(
+        ss.entropy, spawn_key=(*ss.spawn_key, c), pool_size=ss.pool_size))
+        for c in range(1, n_chunks)]
+
+
+_POOLS: dict[int, ThreadPoolExecutor] = {}
+
+
+def _pool(threads: int) -> ThreadPoolExecutor:
+    if threads not in _POOLS:
+        _POOLS[threads] = ThreadPoolExecutor(max_workers=threads)
+    return _POOLS[threads]
+
+
+def default_threads() -> int:
+    """Threads drawing chunks: numba's thread count (``NUMBA_NUM_THREADS``)."""
+    try:
+        import numba
+
+        return int(numba.get_num_threads())
+    except Exception:  # pragma: no cover - numba always importable here
+        return os.cpu_count() or 1
+
+
 def binned_codes(
-    rng: np.random.Generator,
+    rng: np.random.Generator | Sequence[np.random.Generator],
     mean_e: ArrayLike,
     *,
     full_well_e: float,
@@ -43,13 +86,16 @@ def binned_codes(
     gain_error: float = 0.0,
     counted_pixels: ArrayLike = (),
     counted_e: ArrayLike | None = None,
+    threads: int | None = None,
 ) -> NDArray[np.int64]:
     """ADC codes of the reset and signal samples of ``n_frames`` frames, drawn in frame order.
 
     Parameters
     ----------
-    rng : numpy.random.Generator
-        The pixel stage's stream; advanced as the frame-by-frame path advances it.
+    rng : numpy.random.Generator, or a sequence of them
+        The pixel stage's stream; advanced as the frame-by-frame path advances it. A sequence
+        (:func:`chunk_streams`) gives one stream per chunk of :data:`CHUNK_PIXELS` pixels, the
+        chunks drawn in parallel; with one chunk it is the single-stream path.
     mean_e : array_like (n_frames, n_pixels)
         Expected charge of each pixel in each frame, before the full-well clip
         (:func:`~chiptwin.pixel.sensor.mean_electrons`). Unit: e⁻.
@@ -65,6 +111,8 @@ def binned_codes(
         ``read_out`` on a copy of the clipped counts with these entries replaced would have it.
     counted_e : array_like (n_frames, n_counted), optional
         Their collected charge in each frame. Unit: e⁻.
+    threads : int, optional
+        Threads drawing the chunks (default :func:`default_threads`); never changes the codes.
 
     Returns
     -------
@@ -81,7 +129,28 @@ def binned_codes(
                               offset_lsb, gain_error)
     pixels, counted = _counted(counted_pixels, counted_e, lam.shape)
     codes = np.empty((lam.shape[0], 2 * m, lam.shape[1]), np.int64)
-    _kernels.frame_codes(rng, lam, pixels, counted, fw, ktc, read, bool(true_cds), *readout, codes)
+    consts = (fw, ktc, read, bool(true_cds), *readout)
+    if isinstance(rng, np.random.Generator):
+        _kernels.frame_codes(rng, lam, pixels, counted, *consts, codes)
+        return codes
+    streams = list(rng)
+    n_chunks = max(1, -(-lam.shape[1] // CHUNK_PIXELS))
+    if len(streams) != n_chunks:
+        raise ValueError(f"{len(streams)} streams for {lam.shape[1]} pixels: must be {n_chunks}, "
+                         f"one per chunk of {CHUNK_PIXELS}")
+
+    def draw(c: int) -> None:
+        lo, hi = c * CHUNK_PIXELS, min((c + 1) * CHUNK_PIXELS, lam.shape[1])
+        mine = (pixels >= lo) & (pixels < hi)
+        _kernels.frame_codes(streams[c], lam[:, lo:hi], pixels[mine] - lo,
+                             np.ascontiguousarray(counted[:, mine]), *consts, codes[:, :, lo:hi])
+
+    threads = default_threads() if threads is None else int(threads)
+    if n_chunks == 1 or threads <= 1:
+        for c in range(n_chunks):
+            draw(c)
+    else:
+        list(_pool(threads).map(draw, range(n_chunks)))
     return codes
 
 
