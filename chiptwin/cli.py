@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import sys
 import time
 import traceback
@@ -221,11 +222,17 @@ def _study(args: argparse.Namespace) -> int:
         raise ScenarioError("chiptwin", "--workers", args.workers, "must be in [1, 1024]")
     study = load_study(resolve_study(args.study), resolve_scenario)
     out = check_out_dir(args.out or Path("out") / study.name, marker=DB_NAME)
+    new = not out.exists()
     out.mkdir(exist_ok=True)
     (out / "study.json").unlink(missing_ok=True)  # written last: its presence means complete
     progress = None if args.quiet else _Progress("rows", after_s=0.0)
-    result = run_study(study, workers=args.workers, scheduler=args.scheduler,
-                       db=out / DB_NAME, fresh=args.fresh, progress=progress)
+    try:
+        result = run_study(study, workers=args.workers, scheduler=args.scheduler,
+                           db=out / DB_NAME, fresh=args.fresh, progress=progress)
+    except ScenarioError:  # refused before any row ran (scheduler, resumption): leave no trace
+        if new:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
     write_study_outputs(result, out)
     for line in answer_lines(result.summary):
         print(line)

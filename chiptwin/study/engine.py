@@ -71,18 +71,18 @@ def run_study(study: Study | str | Path, workers: int | None = None,
 
         study = load_study(study, resolve_scenario)
     plan = Plan(study)  # validates every point before anything runs
-    store = Store(db, study, fresh=fresh)
+    executor = make_executor(workers, scheduler)  # a bad scheduler fails before the store
     try:
-        resumed = len(store.done())
-        executor = make_executor(workers, scheduler)
+        store = Store(db, study, fresh=fresh)
         try:
+            resumed = len(store.done())
             runner = _Runner(plan, store, executor, progress)
             decisions = runner.search()
+            table = store.rows()
         finally:
-            executor.close()
-        table = store.rows()
+            store.close()
     finally:
-        store.close()
+        executor.close()
     summary = summarise(plan, table, decisions)
     summary["runs"].update(resumed=resumed, computed=runner.computed)
     summary.update(wall_time_s=round(time.perf_counter() - t0, 3),

@@ -131,3 +131,12 @@ def test_study_refuses_a_folder_that_is_not_a_chiptwin_output(small_study, tmp_p
     (out / "notes.txt").write_text("keep me")
     assert main(["study", str(small_study), "--out", str(out), "--quiet"]) == 2
     assert (out / "notes.txt").read_text() == "keep me" and len(list(out.iterdir())) == 1
+
+
+def test_scheduler_without_the_dask_extra_names_the_extra(small_study, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # as if not installed
+    out = small_study.parent / "out"
+    assert main(["study", str(small_study), "--out", str(out), "--scheduler", "local",
+                 "--quiet"]) == 2
+    assert "chiptwin[dask]" in capsys.readouterr().err
+    assert not out.exists()
