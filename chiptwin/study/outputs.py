@@ -128,8 +128,8 @@ def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
             fname = f"{name}_vs_{axis.replace('.', '_')}.png"
             plots.append(_save(fig, folder, fname, f"{name} against {axis}; band: two-sided "
                                f"{summary['confidence']:.0%} interval; star: the answer"))
-    if len(budget) == 2:
-        plots.append(_heat_map(summary, points, budget, folder))
+    if len(budget) >= 2:
+        plots.append(_heat_map(summary, budget[:2], folder))
     return plots
 
 
@@ -151,7 +151,9 @@ def _log_if_wide(ax, axis: str, points: list[dict], name: str) -> None:
         ax.set_yscale("log")
 
 
-def _heat_map(summary: dict, points: list[dict], budget: list[str], folder: Path):
+def _heat_map(summary: dict, budget: list[str], folder: Path):
+    """Status over the first two budget axes; with more axes, the best status over the others
+    (green: some setting of them meets the requirement)."""
     import matplotlib.pyplot as plt
 
     code = {"pass": 2, "undecided": 1, "fail": 0, "measured": 1, "invalid": -1}
@@ -160,15 +162,21 @@ def _heat_map(summary: dict, points: list[dict], budget: list[str], folder: Path
     grid = np.full((len(ys), len(xs)), np.nan)
     for p in summary["points"]:
         if p["status"] in code:
-            grid[ys.index(p["params"][budget[1]]), xs.index(p["params"][budget[0]])] = \
-                code[p["status"]]
+            cell = (ys.index(p["params"][budget[1]]), xs.index(p["params"][budget[0]]))
+            grid[cell] = np.fmax(grid[cell], code[p["status"]])
     fig, ax = plt.subplots(figsize=(6.5, 4))
-    im = ax.imshow(grid, origin="lower", cmap="RdYlGn", vmin=-1, vmax=2, aspect="auto")
+    from matplotlib.colors import ListedColormap
+
+    cmap = ListedColormap(["lightgrey", "tab:red", "gold", "tab:green"])
+    im = ax.imshow(grid, origin="lower", cmap=cmap, vmin=-1.5, vmax=2.5, aspect="auto")
     ax.set_xticks(range(len(xs)), [str(x) for x in xs], fontsize=7)
     ax.set_yticks(range(len(ys)), [str(y) for y in ys], fontsize=7)
-    ax.set(xlabel=budget[0], ylabel=budget[1], title="Requirement met (green) or not (red)")
+    ax.set(xlabel=budget[0], ylabel=budget[1], title="Requirement met (green), failed (red), "
+           "undecided (gold), invalid (grey)")
     fig.colorbar(im, ax=ax, ticks=[-1, 0, 1, 2], label="invalid / fail / undecided / pass")
-    return _save(fig, folder, "status_map.png", "Status of every point over the two budget axes")
+    rest = " (best over the other budget axes)" if len(summary["axes"]) > 2 else ""
+    return _save(fig, folder, "status_map.png",
+                 f"Status over {budget[0]} and {budget[1]}{rest}")
 
 
 def _num(v) -> float:
