@@ -40,6 +40,17 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser("dsp-report", help="fixed-point DSP vs float on a scenario's data")
     _scenario_args(d)
     d.add_argument("--json", help="also write the report as JSON to this file")
+    ch = sub.add_parser("characterize", help="EMVA 1288 datasheet of a scenario's chip, or of "
+                        "the twin a datasheet configures")
+    ch.add_argument("scenario", nargs="?", help="a TOML file, or the name of a bundled scenario "
+                    "(default with --from: pyro_1fmol)")
+    ch.add_argument("--from", dest="from_datasheet", metavar="FILE.json",
+                    help="configure the chip's pixel and ADC from this datasheet first")
+    ch.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="override a scenario value (repeatable)")
+    ch.add_argument("--seed", type=int, help="replace scenario.seed")
+    ch.add_argument("--out", help="output folder (default: out/<scenario name>-emva1288)")
+    ch.add_argument("--quiet", action="store_true", help="no progress, no table")
     st = sub.add_parser("study", help="run a budget study: axes × replicates → the answer")
     st.add_argument("study", help="a study TOML file, or the name of a bundled study")
     st.add_argument("--out", help="output folder (default: out/<study name>); an existing one "
@@ -137,6 +148,8 @@ def _dispatch(args: argparse.Namespace) -> int:
         return 0
     if args.command == "study":
         return _study(args)
+    if args.command == "characterize":
+        return _characterize(args)
     if args.command == "validate" and _is_study(args.scenario):
         return _validate_study(resolve_study(args.scenario))
     path = resolve_scenario(args.scenario)
@@ -181,6 +194,33 @@ def _dsp_report(scenario, json_path: str | None) -> int:
     print(f"all bounds met: {report['all_bounds_ok']}")
     if json_path:
         Path(json_path).write_text(json.dumps(report, indent=2) + "\n")
+    return 0
+
+
+def _characterize(args: argparse.Namespace) -> int:
+    from chiptwin.characterize import characterize
+    from chiptwin.characterize.outputs import JSON_NAME, headline
+    from chiptwin.report import check_out_dir
+
+    if args.scenario is None and args.from_datasheet is None:
+        raise ScenarioError("chiptwin", "characterize", "(nothing)",
+                            "needs a SCENARIO, --from FILE.json, or both")
+    path = resolve_scenario(args.scenario or "pyro_1fmol")
+    datasheet = args.from_datasheet
+    if datasheet:
+        from chiptwin.characterize.twin import load_with_datasheet
+
+        scenario = load_with_datasheet(path, datasheet, args.set, args.seed)
+    else:
+        scenario = load_scenario(path, args.set, args.seed)
+    out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}-emva1288",
+                        marker=JSON_NAME)  # before the measurement
+    result = characterize(scenario, progress=None if args.quiet else _Progress("images"),
+                          datasheet_in=datasheet)
+    out = result.write(out)
+    if not args.quiet:
+        print("\n".join(headline(result.datasheet)))
+        print(f"  outputs in {out}/ ({JSON_NAME}, datasheet.md, plots)")
     return 0
 
 

@@ -85,7 +85,23 @@ def apply_override(raw: dict[str, Any], text: str, source: str) -> None:
 
 
 def scenario_from_dict(raw: dict[str, Any], source: str = "<scenario>") -> Scenario:
-    """Build and check a :class:`Scenario` from an already parsed table."""
+    """Build and check a :class:`Scenario` from an already parsed table.
+
+    ``[chip.pixel] from_datasheet = "FILE.json"`` is replaced, in a copy of the table and before
+    validation (as ``--set`` overrides are), by the pixel and ADC values of that EMVA 1288
+    datasheet (:func:`chiptwin.characterize.twin.apply_datasheet`: path relative to the scenario's
+    folder, else the working folder; values the scenario also sets must agree).
+    """
+    chip = raw.get("chip")
+    pixel = chip.get("pixel") if isinstance(chip, dict) else None
+    if isinstance(pixel, dict) and "from_datasheet" in pixel:
+        from chiptwin.characterize.twin import apply_datasheet
+
+        raw = apply_datasheet(raw, source, lambda table: _scenario(table, source))
+    return _scenario(raw, source)
+
+
+def _scenario(raw: dict[str, Any], source: str) -> Scenario:
     for name in REQUIRED_SECTIONS:
         if name not in raw:
             raise ScenarioError(source, f"[{name}]", dataclasses.MISSING, "section is required")

@@ -1,0 +1,331 @@
+"""From a datasheet to a twin: an EMVA 1288 datasheet (the ``emva1288.json`` layout) → the
+``[chip.pixel]`` and ``[chip.adc]`` values of a scenario (``from_datasheet = "FILE.json"``).
+
+The inverse of the datasheet's figures, through the twin's model (REFERENCE §4, §7):
+
+=========================  ===================================================================
+datasheet figure           scenario value
+=========================  ===================================================================
+η (%)                      ``chip.pixel.qe = η / fill factor`` (the datasheet's
+                           ``camera.fill_factor`` if it has one, else the scenario's diode
+                           area / pitch²): the diode's QE, independent of the geometry
+K (DN/e⁻), ADC bits        ``chip.adc.bits``; ``chip.pixel.capacitance_fF = q(1 + gain error)
+                           / (K·LSB)`` with the scenario's ADC range
+σ_d (e⁻), M                ``chip.pixel.read_noise_e = √((σ_d² − 2σ_kTC²[no true CDS])·M/2)``:
+                           σ_d is the noise of a CMS difference of M + M samples. An upper
+                           limit (quantisation regime) is used as the value: the worst case
+                           the datasheet allows
+μ_I (e⁻/s) at T, T_d       ``dark_current_nA_per_cm2`` at the scenario's ``ref_temp_C``
+                           (``μ_I·q/A_diode·2^((T_ref − T)/T_d)``), ``dark_doubling_C = T_d``
+DSNU₁₂₈₈ (e⁻)              ``dsnu_frac = DSNU / (μ_I · spatial exposure time)``
+PRNU₁₂₈₈ (%)               ``prnu_frac = PRNU / 100``
+μ_e.sat (e⁻)               ``full_well_e``
+reset level (DN)           ``pedestal_V = v_min + (reset − offset)·LSB/(1 + gain error)``
+=========================  ===================================================================
+
+Only the figures present are used; the scenario keeps its own values for the others. Refused,
+naming the datasheet, the key, the value and what is allowed: a file that is not such a JSON
+document, a figure that is not a positive finite number, a derived value outside the scenario
+field's range, figures that contradict each other (``SNR_max ≠ √μ_e.sat``, ``μ_e.sat ≠ η·μ_p.sat``,
+``DR ≠ μ_p.sat/μ_p.min``, ``1/K``, ``DSNU`` in DN, each within 1 %), a saturation above the ADC's
+range, a DSNU without a dark current, and a value the scenario also sets to something else.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import json
+import math
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+from chiptwin.config.fields import ScenarioError, allowed_text
+from chiptwin.config.schema import Adc, Pixel, Scenario
+from chiptwin.constants import K_B, Q_E
+
+#: Figures a datasheet must give.
+REQUIRED = ("quantum_efficiency", "system_gain", "temporal_dark_noise", "saturation_capacity")
+
+#: Relative disagreement above which two figures of one datasheet contradict each other.
+CONSISTENCY_TOL: float = 0.01
+
+_ZERO_C_K = 273.15
+
+
+def _fields(cls: type) -> dict[str, dataclasses.Field]:
+    return {f.name: f for f in dataclasses.fields(cls)}
+
+
+_FIELDS = {"chip.pixel": _fields(Pixel), "chip.adc": _fields(Adc)}
+
+
+class _Doc:
+    """A parsed datasheet with checked access to its figures."""
+
+    def __init__(self, path: Path, doc: Any) -> None:
+        self.path, self.source = path, str(path)
+        if not isinstance(doc, dict) or not isinstance(doc.get("parameters"), dict):
+            raise ScenarioError(self.source, "parameters", None if not isinstance(doc, dict)
+                                else doc.get("parameters"),
+                                "must be an object of figures (the emva1288.json layout)")
+        self.params, self.camera = doc["parameters"], doc.get("camera") or {}
+        self.conditions = doc.get("conditions") or {}
+        if not isinstance(self.camera, dict) or not isinstance(self.conditions, dict):
+            raise ScenarioError(self.source, "camera", self.camera, "must be an object")
+
+    def figure(self, key: str, lo: float = 0.0, lo_open: bool = True) -> float | None:
+        """``parameters.<key>.value``: None when absent or null, else a checked number."""
+        entry = self.params.get(key)
+        if entry is None:
+            return None
+        where = f"parameters.{key}"
+        if not isinstance(entry, dict) or "value" not in entry:
+            raise ScenarioError(self.source, where, entry, 'must be an object with a "value"')
+        return self.number(where + ".value", entry["value"], lo, lo_open, allow_none=True)
+
+    def upper_limit(self, key: str) -> bool:
+        return bool((self.params.get(key) or {}).get("upper_limit", False))
+
+    def number(self, where: str, value: Any, lo: float = 0.0, lo_open: bool = True,
+               allow_none: bool = False) -> float | None:
+        if value is None and allow_none:
+            return None
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if not ok or not math.isfinite(value) or value < lo or (lo_open and value == lo):
+            raise ScenarioError(self.source, where, value,
+                                f"must be a finite number {'>' if lo_open else '≥'} {lo:g}")
+        return float(value)
+
+    def camera_value(self, key: str, lo: float = 0.0) -> float | None:
+        if key not in self.camera or self.camera[key] is None:
+            return None
+        return self.number(f"camera.{key}", self.camera[key], lo)
+
+    def fail(self, key: str, value: Any, allowed: str) -> None:
+        raise ScenarioError(self.source, key, value, allowed)
+
+
+def read_datasheet(path: Path) -> _Doc:
+    """Parse a datasheet file; unreadable or malformed files are :class:`ScenarioError`."""
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(str(path), "(file)", str(path),
+                            f"must be a readable UTF-8 datasheet ({exc})") from None
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ScenarioError(str(path), "(file)", str(path), f"must be valid JSON ({exc})") from None
+    return _Doc(path, doc)
+
+
+def resolve_path(value: Any, source: str) -> Path:
+    """The datasheet named by ``from_datasheet``: absolute, or relative to the scenario file's
+    folder if it is there, else to the working folder."""
+    if not isinstance(value, str) or not value:
+        raise ScenarioError(source, "chip.pixel.from_datasheet", value,
+                            "must be the path of a datasheet JSON file (a string)")
+    path = Path(value)
+    if path.is_absolute():
+        candidates = [path]
+    else:
+        candidates = [Path(source).parent / path, Path.cwd() / path]
+    for candidate in candidates:
+        if candidate.is_file():
+            return candidate
+    raise ScenarioError(source, "chip.pixel.from_datasheet", value,
+                        "must name an existing file (looked for "
+                        + ", ".join(str(c) for c in candidates) + ")")
+
+
+def apply_datasheet(raw: dict[str, Any], source: str,
+                    build: Callable[[dict[str, Any]], Scenario]) -> dict[str, Any]:
+    """The raw scenario table with ``chip.pixel.from_datasheet`` replaced by the values the
+    datasheet gives (checked); ``build`` makes a validated scenario of a raw table."""
+    raw = copy.deepcopy(raw)
+    pixel_raw = raw["chip"]["pixel"]
+    doc = read_datasheet(resolve_path(pixel_raw.pop("from_datasheet"), source))
+    base = build(raw)
+    values = datasheet_values(doc, base)
+    for key, (value, origin) in values.items():
+        section, leaf = key.rsplit(".", 1)
+        table = raw.setdefault("chip", {}).setdefault(section.split(".")[1], {})
+        if leaf in table and not _same(table[leaf], value):
+            doc.fail(origin, _origin_value(doc, origin), f"gives {key} = {value:.6g}, but "
+                     f"{source} sets "
+                     f"{key} = {table[leaf]!r}: remove one of them")
+        table[leaf] = value
+    return raw
+
+
+def load_with_datasheet(path: str | Path, datasheet: str | Path, overrides: Iterable[str] = (),
+                        seed: int | None = None) -> Scenario:
+    """A scenario file whose chip takes its pixel and ADC values from a datasheet
+    (``chiptwin characterize --from``): the datasheet's values replace the file's own, as a
+    command-line option should; an override (``--set``) of one of them is a conflict."""
+    from chiptwin.config.load import apply_override, read_toml, scenario_from_dict
+
+    source = str(path)
+    doc = read_datasheet(Path(datasheet))
+    raw = read_toml(path)
+    base_raw = copy.deepcopy(raw)
+    for text in overrides:
+        apply_override(base_raw, text, source)
+    pixel_raw = (base_raw.get("chip") or {}).get("pixel")
+    if isinstance(pixel_raw, dict):
+        pixel_raw.pop("from_datasheet", None)
+    targets = datasheet_values(doc, scenario_from_dict(base_raw, source))
+    for key in targets:
+        section = raw.get("chip", {}).get(key.split(".")[1])
+        if isinstance(section, dict):
+            section.pop(key.rsplit(".", 1)[1], None)
+    for text in overrides:
+        apply_override(raw, text, source)
+    raw.setdefault("chip", {}).setdefault("pixel", {})["from_datasheet"] = str(
+        Path(datasheet).resolve())
+    if seed is not None:
+        raw.setdefault("scenario", {})["seed"] = seed
+    return scenario_from_dict(raw, source)
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, bool) or isinstance(b, bool) or not isinstance(a, (int, float)):
+        return a == b
+    return math.isclose(a, b, rel_tol=1e-9, abs_tol=0.0)
+
+
+def datasheet_values(doc: _Doc, s: Scenario) -> dict[str, tuple[Any, str]]:
+    """Scenario key → (value, the datasheet key it comes from), every value checked."""
+    for key in REQUIRED:
+        if doc.figure(key) is None:
+            doc.fail(f"parameters.{key}", None, "is required (a figure with a value)")
+    bits = doc.camera.get("adc_bits")
+    if type(bits) is not int or not 1 <= bits <= 24:
+        doc.fail("camera.adc_bits", bits, "must be an integer in [1, 24]")
+    adc, px = s.chip.adc, s.chip.pixel
+    lsb = (adc.v_max_V - adc.v_min_V) / 2.0**bits
+    gain = doc.figure("system_gain")
+    out: dict[str, tuple[Any, str]] = {"chip.adc.bits": (bits, "camera.adc_bits")}
+    cap_fF = Q_E * (1.0 + adc.gain_error) / (gain * lsb) * 1e15
+    out["chip.pixel.capacitance_fF"] = (cap_fF, "parameters.system_gain.value")
+    fill = doc.camera_value("fill_factor") or px.diode_w_um * px.diode_h_um / s.chip.pitch_um**2
+    out["chip.pixel.qe"] = (doc.figure("quantum_efficiency") / 100.0 / fill,
+                            "parameters.quantum_efficiency.value")
+    out["chip.pixel.read_noise_e"] = (_read_noise(doc, s, cap_fF),
+                                      "parameters.temporal_dark_noise.value")
+    out["chip.pixel.full_well_e"] = (doc.figure("saturation_capacity"),
+                                     "parameters.saturation_capacity.value")
+    prnu = doc.figure("prnu", lo_open=False)
+    if prnu is not None:
+        out["chip.pixel.prnu_frac"] = (prnu / 100.0, "parameters.prnu.value")
+    reset = doc.figure("reset_level", lo=-math.inf)
+    if reset is not None:
+        out["chip.pixel.pedestal_V"] = (
+            adc.v_min_V + (reset - adc.offset_error_lsb) * lsb / (1.0 + adc.gain_error),
+            "parameters.reset_level.value")
+    out.update(_dark(doc, s))
+    _check_ranges(doc, out)
+    _check_consistency(doc, s, gain, bits, reset)
+    return out
+
+
+def _read_noise(doc: _Doc, s: Scenario, cap_fF: float) -> float:
+    """Read noise per sample from σ_d of an M + M sample CMS difference (kTC without true CDS)."""
+    sigma_d = doc.figure("temporal_dark_noise")
+    m = doc.camera.get("cms_samples", 1)
+    if type(m) is not int or m < 1:
+        doc.fail("camera.cms_samples", m, "must be an integer ≥ 1 (the CMS samples M)")
+    var = sigma_d**2
+    if not s.chip.pixel.true_cds:
+        temp_k = (doc.camera_value("temperature_C", lo=-273.15) or s.chip.pixel.temperature_C)
+        ktc2 = K_B * (temp_k + _ZERO_C_K) * cap_fF * 1e-15 / Q_E**2
+        var -= 2.0 * ktc2
+        if var < 0:
+            doc.fail("parameters.temporal_dark_noise.value", sigma_d,
+                     f"is below the kTC noise of the CDS difference, √2·{math.sqrt(ktc2):.4g} "
+                     "e⁻, which the scenario's chip (true_cds = false) cannot beat")
+    return math.sqrt(var * m / 2.0)
+
+
+def _dark(doc: _Doc, s: Scenario) -> dict[str, tuple[Any, str]]:
+    """Dark current density, doubling temperature and DSNU."""
+    px, out = s.chip.pixel, {}
+    doubling = doc.figure("doubling_temperature")
+    if doubling is not None:
+        out["chip.pixel.dark_doubling_C"] = (doubling, "parameters.doubling_temperature.value")
+    dark = doc.figure("dark_current", lo_open=False)
+    dsnu = doc.figure("dsnu", lo_open=False)
+    if dark is not None:
+        t_meas = doc.camera_value("temperature_C", lo=-273.15)
+        t_meas = px.temperature_C if t_meas is None else t_meas
+        area_um2 = doc.camera_value("diode_area_um2") or px.diode_w_um * px.diode_h_um
+        td = doubling or px.dark_doubling_C
+        amps = dark * Q_E * 2.0 ** ((px.ref_temp_C - t_meas) / td)
+        out["chip.pixel.dark_current_nA_per_cm2"] = (amps / (area_um2 * 1e-8) * 1e9,
+                                                     "parameters.dark_current.value")
+    if dsnu is not None:
+        t_spatial = doc.conditions.get("spatial_exposure_s")
+        if not dark or t_spatial is None:
+            doc.fail("parameters.dsnu.value", dsnu,
+                     "needs a dark current > 0 and conditions.spatial_exposure_s: the twin's "
+                     "DSNU is a spread of the dark current")
+        t_spatial = doc.number("conditions.spatial_exposure_s", t_spatial)
+        out["chip.pixel.dsnu_frac"] = (dsnu / (dark * t_spatial), "parameters.dsnu.value")
+    return out
+
+
+def _check_ranges(doc: _Doc, values: dict[str, tuple[Any, str]]) -> None:
+    """Every derived value against its scenario field's rule, reported on the datasheet's key."""
+    from chiptwin.config.fields import check_value
+
+    for key, (value, origin) in values.items():
+        section, leaf = key.rsplit(".", 1)
+        field = _FIELDS[section][leaf]
+        try:
+            check_value(field, value, doc.source, origin)
+        except ScenarioError:
+            doc.fail(origin, _origin_value(doc, origin),
+                     f"gives {key} = {value:.6g}, which {allowed_text(field)}")
+
+
+def _origin_value(doc: _Doc, origin: str) -> Any:
+    parts = origin.split(".")
+    node: Any = {"parameters": doc.params, "camera": doc.camera, "conditions": doc.conditions}
+    for part in parts:
+        node = node.get(part) if isinstance(node, dict) else None
+    return node
+
+
+def _check_consistency(doc: _Doc, s: Scenario, gain: float, bits: int,
+                       reset: float | None) -> None:
+    """Figures that contradict each other, and a saturation beyond the ADC's range."""
+    qe, e_sat = doc.figure("quantum_efficiency") / 100.0, doc.figure("saturation_capacity")
+    p_sat, p_min = doc.figure("saturation_irradiation"), doc.figure(
+        "absolute_sensitivity_threshold")
+    checks = [("snr_max", math.sqrt(e_sat), "√μ_e.sat"),
+              ("saturation_irradiation", e_sat / qe, "μ_e.sat/η"),
+              ("inverse_system_gain", 1.0 / gain, "1/K")]
+    if p_sat is not None and p_min is not None:
+        checks.append(("dynamic_range", p_sat / p_min, "μ_p.sat/μ_p.min"))
+    dsnu = doc.figure("dsnu", lo_open=False)
+    if dsnu:
+        checks.append(("dsnu_dn", dsnu * gain, "DSNU₁₂₈₈ (e⁻) × K"))
+    for key, expected, formula in checks:
+        given = doc.figure(key, lo_open=False)
+        if given is not None and abs(given - expected) > CONSISTENCY_TOL * abs(expected):
+            doc.fail(f"parameters.{key}.value", given,
+                     f"contradicts the datasheet's other figures: {formula} = {expected:.6g} "
+                     f"(tolerance {100 * CONSISTENCY_TOL:g} %)")
+    a = s.chip.adc
+    if reset is None:
+        lsb = (a.v_max_V - a.v_min_V) / 2.0**bits
+        reset = (s.chip.pixel.pedestal_V - a.v_min_V) / lsb * (1 + a.gain_error) + \
+            a.offset_error_lsb
+    top = reset + e_sat * gain
+    if top > 2**bits - 1 + 0.5:
+        doc.fail("parameters.saturation_capacity.value", e_sat,
+                 f"is above the ADC's range: reset level {reset:.6g} DN + μ_e.sat·K = "
+                 f"{e_sat * gain:.6g} DN reaches code {top:.6g} > {2**bits - 1} "
+                 f"({bits} bits)")
