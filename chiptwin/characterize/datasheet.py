@@ -117,7 +117,7 @@ def build_datasheet(m: Measurement, s: Scenario) -> Datasheet:
     f["linearity_error"] = Figure(lin.le)
     f["linearity_error_min"], f["linearity_error_max"] = Figure(lin.le_min), Figure(lin.le_max)
     f["dark_offset"] = ev.dark_offset(t)
-    f["reset_level"] = Figure(t.reset_level_dn)
+    f["reset_level"] = Figure(t.reset_level_dn, t.reset_level_se_dn)
     bench = Bench(s)
     flags = {
         "quantisation_regime": bool(sigma_y.value < ev.QUANTISATION_REGIME_DN),
@@ -179,13 +179,13 @@ def scenario_values(s: Scenario, bench: Bench, m: Measurement
     sigma_y = float(np.sqrt((gain * sigma_d) ** 2 + quant))
     dark = pixel.dark_current_e_per_s(px.dark_current_nA_per_cm2, cam.diode_area_um2,
                                       px.temperature_C, px.ref_temp_C, px.dark_doubling_C)
-    e_sat = bench.saturation_e
+    e_sat = _photo_electrons_at_saturation(bench, m, dark)
     p_sat = e_sat / qe
     p_min = ev.sensitivity_threshold(qe, sigma_y, gain)
     dr = p_sat / p_min
     dsnu = px.dsnu_frac * dark * m.spatial.t_exp_s
     qe_src, noise_src = "chip.pixel.qe × fill factor", "chip.pixel.read_noise_e, cms_samples"
-    sat_src = "chip.pixel.full_well_e, ADC range"
+    sat_src = "chip.pixel.full_well_e or ADC range, less the dark charge"
     return {
         "quantum_efficiency": (100 * qe, qe_src),
         "system_gain": (gain, "chip.pixel.capacitance_fF, chip.adc"),
@@ -193,7 +193,7 @@ def scenario_values(s: Scenario, bench: Bench, m: Measurement
         "responsivity": (gain * qe, "K × η"),
         "temporal_dark_noise": (sigma_d, noise_src),
         "temporal_dark_noise_dn": (sigma_y, noise_src + ", 2M conversions' rounding"),
-        "saturation_irradiation": (p_sat, sat_src),
+        "saturation_irradiation": (p_sat, sat_src + ", dark charge"),
         "saturation_capacity": (e_sat, sat_src),
         "snr_max": (float(np.sqrt(e_sat)), sat_src),
         "snr_max_db": (float(10 * np.log10(e_sat)), sat_src),
@@ -213,6 +213,15 @@ def scenario_values(s: Scenario, bench: Bench, m: Measurement
         "dark_offset": (0.0, "CMS removes the reset level"),
         "reset_level": (bench.reset_level_dn, "chip.pixel.pedestal_V, chip.adc offset/gain"),
     }
+
+
+def _photo_electrons_at_saturation(bench: Bench, m: Measurement, dark_e_per_s: float) -> float:
+    """The nominal μ_e.sat: photo-electrons of the mean pixel when photo plus dark charge reach
+    the nominal saturation under the bench's light (the standard counts photo-electrons,
+    ``η·μ_p.sat``; the well also holds the dark charge of that exposure). Unit: e⁻."""
+    photo_rate = (m.temporal.irradiance_photons_per_s_per_um2 * m.camera.diode_area_um2
+                  * bench.sensor.qe)
+    return bench.saturation_e * photo_rate / (photo_rate + dark_e_per_s)
 
 
 def _notes(m: Measurement, bench: Bench, flags: dict[str, bool], sigma_y: Figure,

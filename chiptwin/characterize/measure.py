@@ -44,6 +44,7 @@ class TemporalSeries:
     n_values : int  values per image (the chip's pixels × the mosaic's frames).
     irradiance_photons_per_s_per_um2 : float  the source at the sensor plane.
     reset_level_dn : float  mean code of the reset samples of the dark images. Unit: DN.
+    reset_level_se_dn : float  its standard error, from the spread of the images' means. Unit: DN.
     """
 
     t_exp_s: NDArray[np.float64]
@@ -53,6 +54,7 @@ class TemporalSeries:
     n_values: int
     irradiance_photons_per_s_per_um2: float
     reset_level_dn: float
+    reset_level_se_dn: float
 
     def column(self, which: str, attr: str) -> NDArray[np.float64]:
         """One statistic over the series, e.g. ``column("bright", "var")``."""
@@ -198,8 +200,9 @@ def photon_transfer(bench: Bench, protocol: Protocol, tiles: int, rng: np.random
         if images is not None:
             images.setdefault("ptc", []).append((a, b, c, d))
     mu_p = irradiance * bench.camera.pixel_area_um2 * t_exp
+    reset_se = float(np.std(resets, ddof=1) / np.sqrt(len(resets)))
     return TemporalSeries(t_exp, mu_p, tuple(bright), tuple(dark), bright[0].n, irradiance,
-                          float(np.mean(resets)))
+                          float(np.mean(resets)), reset_se)
 
 
 def spatial_series(bench: Bench, protocol: Protocol, temporal: TemporalSeries,

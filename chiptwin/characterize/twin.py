@@ -19,7 +19,11 @@ K (DN/e⁻), ADC bits        ``chip.adc.bits``; ``chip.pixel.capacitance_fF = q(
                            (``μ_I·q/A_diode·2^((T_ref − T)/T_d)``), ``dark_doubling_C = T_d``
 DSNU₁₂₈₈ (e⁻)              ``dsnu_frac = DSNU / (μ_I · spatial exposure time)``
 PRNU₁₂₈₈ (%)               ``prnu_frac = PRNU / 100``
-μ_e.sat (e⁻)               ``full_well_e``
+μ_e.sat (e⁻)               ``full_well_e = μ_e.sat + μ_I·t_sat``: the standard counts the
+                           photo-electrons at saturation; the well also held the dark charge
+                           of that exposure (``t_sat = μ_p.sat/(irradiance·pitch²)``, when the
+                           datasheet gives them). The standard's saturation is where the
+                           temporal variance peaks, a few PRNU below the mean pixel's full well
 reset level (DN)           ``pedestal_V = v_min + (reset − offset)·LSB/(1 + gain error)``
 =========================  ===================================================================
 
@@ -215,8 +219,8 @@ def datasheet_values(doc: _Doc, s: Scenario) -> dict[str, tuple[Any, str]]:
                             "parameters.quantum_efficiency.value")
     out["chip.pixel.read_noise_e"] = (_read_noise(doc, s, cap_fF),
                                       "parameters.temporal_dark_noise.value")
-    out["chip.pixel.full_well_e"] = (doc.figure("saturation_capacity"),
-                                     "parameters.saturation_capacity.value")
+    full_well = doc.figure("saturation_capacity") + _dark_at_saturation(doc)
+    out["chip.pixel.full_well_e"] = (full_well, "parameters.saturation_capacity.value")
     prnu = doc.figure("prnu", lo_open=False)
     if prnu is not None:
         out["chip.pixel.prnu_frac"] = (prnu / 100.0, "parameters.prnu.value")
@@ -229,6 +233,19 @@ def datasheet_values(doc: _Doc, s: Scenario) -> dict[str, tuple[Any, str]]:
     _check_ranges(doc, out)
     _check_consistency(doc, s, gain, bits, reset)
     return out
+
+
+def _dark_at_saturation(doc: _Doc) -> float:
+    """Dark charge in the well at the saturation exposure: μ_e.sat counts photo-electrons only.
+    ``μ_I · μ_p.sat / (irradiance · pixel area)`` when the datasheet gives them, else 0.
+    Unit: e⁻."""
+    dark, p_sat = doc.figure("dark_current", lo_open=False), doc.figure("saturation_irradiation")
+    irr = doc.conditions.get("irradiance_photons_per_s_per_um2")
+    pitch = doc.camera_value("pixel_pitch_um")
+    if not dark or p_sat is None or irr is None or pitch is None:
+        return 0.0
+    irr = doc.number("conditions.irradiance_photons_per_s_per_um2", irr)
+    return dark * p_sat / (irr * pitch * pitch)
 
 
 def _read_noise(doc: _Doc, s: Scenario, cap_fF: float) -> float:

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
+from chiptwin.characterize.estimators import pair_stats, spatial_stats, var_se
 from chiptwin.pixel import (
     adc_convert,
     conversion_gain_uV_per_e,
@@ -88,21 +89,11 @@ def cds_codes(rng, bench, photons, dark_e, gain_map, true_cds=True, n_frames=2):
     return np.array(out)
 
 
-def _var_se(x: np.ndarray) -> float:
-    d = x - x.mean()
-    return float(np.sqrt(max((d**4).mean() - (d**2).mean() ** 2, 0.0) / x.size))
-
-
-def pair_stats(frames: np.ndarray) -> tuple[float, float, float, float]:
-    """Mean, temporal variance var(A − B)/2 and their standard errors, from a frame pair."""
-    a, b = frames[0], frames[1]
-    diff = a - b
-    return (
-        float(((a + b) / 2).mean()),
-        float(diff.var() / 2),
-        float(np.sqrt(diff.var() / 2 / (2 * a.size))),
-        _var_se(diff) / 2,
-    )
+def pair(frames: np.ndarray) -> tuple[float, float, float, float]:
+    """Mean, temporal variance var(A − B)/2 and their standard errors, from a frame pair (the
+    bench's estimator, :func:`chiptwin.characterize.estimators.pair_stats`)."""
+    p = pair_stats(frames[0], frames[1])
+    return p.mean, p.var, p.mean_se, p.var_se
 
 
 def photon_transfer(rng, bench, gain_map):
@@ -110,7 +101,7 @@ def photon_transfer(rng, bench, gain_map):
     means, variances, ses = [], [], []
     for e in bench.exposures_e:
         frames = cds_codes(rng, bench, np.full(N_PIX, e / QE), 0.0, gain_map)
-        m, v, _, se = pair_stats(frames)
+        m, v, _, se = pair(frames)
         means.append(m)
         variances.append(v)
         ses.append(se)
@@ -153,7 +144,7 @@ def _read_noise(measured) -> tuple[float, float, float, float]:
     """Read noise from a zero-exposure dark pair: var(D) = 2(σ_r²g² + 1/12) codes² (true CDS)."""
     bench, g = measured["bench"], measured["g"]
     frames = cds_codes(measured["rng"], bench, np.zeros(N_PIX), 0.0, 1.0)
-    _, v, _, se_v = pair_stats(frames)
+    _, v, _, se_v = pair(frames)
     u = v / 2 - 1.0 / 12.0  # σ_r² g², in codes²
     return float(np.sqrt(u) / g), u, se_v / 2, v
 
@@ -177,7 +168,7 @@ def test_dark_series_recovers_dark_current(measured):
     means, ses = [], []
     for t in times:
         frames = cds_codes(rng, bench, np.zeros(N_PIX), i_dark * t * measured["dark_map"], 1.0)
-        m, _, se_m, _ = pair_stats(frames)  # temporal noise only: the DSNU map averages to 1
+        m, _, se_m, _ = pair(frames)  # temporal noise only: the DSNU map averages to 1
         means.append(m)
         ses.append(se_m)
     w = 1.0 / np.square(ses)
@@ -195,10 +186,10 @@ def _fixed_pattern(measured, photons, dark_e, n_frames=8) -> tuple[float, float]
         measured["rng"], measured["bench"], photons, dark_e, measured["gain_map"], n_frames=n_frames
     )
     avg = frames.mean(axis=0)
-    temporal = frames.var(axis=0, ddof=1).mean() / n_frames
-    frac2 = (avg.var() - temporal) / avg.mean() ** 2
+    stats = spatial_stats(avg, frames.var(axis=0, ddof=1), n_frames)  # the bench's estimator
+    frac2 = stats.s2 / stats.mean**2
     # the image's own variance error, and the drawn map's spread about the parameter (≈ equal)
-    se_frac2 = np.sqrt(2.0) * _var_se(avg) / avg.mean() ** 2
+    se_frac2 = np.sqrt(2.0) * var_se(avg) / stats.mean**2
     return float(frac2), float(se_frac2)
 
 
@@ -229,7 +220,7 @@ def test_no_cds_dark_frames_recover_ktc(measured):
     bench, g, g_se = measured["bench"], measured["g"], measured["g_se"]
     _, u, se_u, v_cds = _read_noise(measured)  # true CDS: read noise and quantisation only
     frames = cds_codes(measured["rng"], bench, np.zeros(N_PIX), 0.0, 1.0, true_cds=False)
-    _, v, _, se_v = pair_stats(frames)
+    _, v, _, se_v = pair(frames)
     numerator = (v - 1.0 / 6.0) / 2 - u  # σ_kTC² g²
     ktc2 = numerator / g**2
     se_ktc2 = np.hypot(np.hypot(se_v / 2, se_u) / g**2, 2 * ktc2 * g_se / g)
