@@ -67,6 +67,9 @@ def write_outputs(result: Result, out_dir: str | Path) -> Path:
     try:
         (tmp / "summary.json").write_text(json.dumps(result.summary, indent=2) + "\n")
         np.savez_compressed(tmp / "arrays.npz", **result.arrays, **result.trace.to_arrays())
+        if result.frames_path is not None:  # [run] save_frames: streamed during the run
+            shutil.move(result.frames_path, tmp / "frames.npy")
+            result.frames_path = None
         plots = make_plots(result, tmp)
         (tmp / "report.md").write_text(report_markdown(result.summary, plots))
         if out.exists():
@@ -92,12 +95,16 @@ def make_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
 
     a, plots = result.arrays, []
     fig, ax = plt.subplots(figsize=(7, 3.5))
-    for i in range(a["site_signal_e"].shape[0]):
+    n_sites = a["site_signal_e"].shape[0]
+    for i in range(min(n_sites, MAX_CURVES)):
         ax.plot(a["block_t_s"], a["site_signal_e"][i], lw=0.8, label=f"site {i}")
     ax.set(xlabel="time (s)", ylabel="signal per frame (e⁻)", title="Light curve at site pixels")
-    if a["site_signal_e"].shape[0] <= 8:
+    if n_sites <= 8:
         ax.legend(fontsize=7)
-    plots.append(_save(fig, folder, "light_curve.png", "DSP output at each site's pixel"))
+    shown = "each site's pixel" if n_sites <= MAX_CURVES else f"the first {MAX_CURVES} sites"
+    plots.append(_save(fig, folder, "light_curve.png", f"DSP output at {shown}"))
+    if n_sites >= MIN_SITES_FOR_MAP:
+        plots += _array_plots(result, folder)
 
     fig, ax = plt.subplots(figsize=(7, 3.5))
     # Symmetric log scale: the optical cross-talk into neighbours is orders below the site.
@@ -123,6 +130,42 @@ def make_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
     ax.step(a["memory_t_s"], a["memory_frames"], where="post")
     ax.set(xlabel="time (s)", ylabel="frames", title="Frame memory occupancy")
     plots.append(_save(fig, folder, "memory.png", "Frame memory occupancy"))
+    return plots
+
+
+#: Light curves drawn at most; sites from which the report maps the array.
+MAX_CURVES, MIN_SITES_FOR_MAP = 16, 16
+
+
+def _array_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
+    """The per-site SNR as a map over the array (sites called wrong ringed) and its histogram."""
+    import matplotlib.pyplot as plt
+
+    a, s = result.arrays, result.scenario
+    summary = result.summary["array"]
+    snr_db = 10 * np.log10(np.maximum(a["site_snr_power"], 1e-3))
+    rows, cols = np.divmod(a["site_pixel_index"], s.chip.cols)
+    fig, ax = plt.subplots(figsize=(6.5, 5.5))
+    sc = ax.scatter(cols, rows, c=snr_db, s=max(2.0, 4e4 / len(rows)), marker="s", cmap="viridis")
+    if "site_called_right" in a and not a["site_called_right"].all():
+        wrong = ~a["site_called_right"]
+        ax.scatter(cols[wrong], rows[wrong], s=max(6.0, 1.2e5 / len(rows)), facecolors="none",
+                   edgecolors="red", linewidths=0.6, label="called wrong")
+        ax.legend(fontsize=7, loc="upper right")
+    ax.set(xlim=(-0.5, s.chip.cols - 0.5), ylim=(s.chip.rows - 0.5, -0.5), xlabel="column",
+           ylabel="row", aspect="equal", title="Per-site SNR (power, dB) over the array")
+    fig.colorbar(sc, ax=ax, label="SNR (power, dB)")
+    right = summary.get("fraction_called_right")
+    caption = f"Per-site SNR over the array, {summary['n_sites']} sites" + (
+        f"; {right:.1%} called right (wrong ones ringed)" if right is not None else "")
+    plots = [_save(fig, folder, "site_map.png", caption)]
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    ax.hist(snr_db, bins=60, color="tab:blue")
+    ax.axvline(10 * np.log10(s.run.detection_snr_power), color="k", ls=":", lw=1,
+               label="detection threshold")
+    ax.set(xlabel="SNR (power, dB)", ylabel="sites", title="Distribution of per-site SNR")
+    ax.legend(fontsize=7)
+    plots.append(_save(fig, folder, "snr_histogram.png", "Histogram of the per-site SNR"))
     return plots
 
 
@@ -161,6 +204,15 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
         ))
     if len(summary["sites"]) > 8:
         rows.append(("sites", f"{len(summary['sites'])} in all (see summary.json)"))
+        arr = summary.get("array", {})
+        if arr:
+            pct = arr["snr_power_percentiles"]
+            text = (f"median {pct['p50']:.4g}, 5–95 % {pct['p5']:.4g} … {pct['p95']:.4g}, "
+                    f"{arr['fraction_detected']:.1%} detected")
+            rows.append(("per-site SNR (power)", text))
+            if "fraction_called_right" in arr:
+                rows.append(("sites called right", f"{arr['sites_called_right']} of "
+                             f"{arr['n_sites']} ({arr['fraction_called_right']:.2%})"))
     if "called_sequence" in summary:
         ok = summary["called_sequence"] == summary["true_sequence"]
         rows.append(("true sequence", summary["true_sequence"]))

@@ -64,6 +64,11 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
             site["first_saturation_s"] = float(t[np.isfinite(t)][0]) if site[
                 "saturated_frames"] else None
     summary["sites"] = sites
+    summary["array"] = array_figures(summary, sites)
+    arrays["site_snr_power"] = np.array([site["snr_power"] for site in sites])
+    if "called_sequences" in summary:
+        arrays["site_called_right"] = np.array(
+            [c == summary["true_sequence"] for c in summary["called_sequences"]])
     peak, frame = out.peak_block, out.peak_frame_e
     if frame is None:  # every pixel kept: the brightest output is one of them
         peak = int(np.argmax(out.value_e[:, cols].sum(axis=1))) if len(out.value_e) else 0
@@ -165,6 +170,33 @@ def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
     for site, sd in zip(sites, level_sd, strict=True):
         site["signal_sd_e"] = sd
     return sites
+
+
+#: Percentiles of the per-site SNR given in ``summary['array']``.
+SNR_PERCENTILES = (0, 5, 25, 50, 75, 95, 100)
+
+
+def array_figures(summary: dict[str, Any], sites: list[dict]) -> dict[str, Any]:
+    """The array as a whole: how many sites, the fraction detected and (pyrosequencing) called
+    right (the whole called sequence equals the template's), and the per-site power SNR's
+    distribution (percentiles, mean, in dB too)."""
+    snr_p = np.array([site["snr_power"] for site in sites], dtype=np.float64)
+    pct = np.percentile(snr_p, SNR_PERCENTILES) if len(snr_p) else np.full(7, np.nan)
+    out: dict[str, Any] = {
+        "n_sites": len(sites),
+        "fraction_detected": float(np.mean([site["detected"] for site in sites])) if sites
+        else 0.0,
+        "snr_power_percentiles": {f"p{q}": float(v) for q, v in zip(SNR_PERCENTILES, pct,
+                                                                      strict=True)},
+        "snr_power_mean": float(snr_p.mean()) if len(snr_p) else float("nan"),
+        "snr_power_median_db": float(10 * np.log10(pct[3])) if len(snr_p) and pct[3] > 0
+        else None,
+    }
+    if "called_sequences" in summary:
+        right = [c == summary["true_sequence"] for c in summary["called_sequences"]]
+        out["sites_called_right"] = int(sum(right))
+        out["fraction_called_right"] = float(np.mean(right)) if right else 0.0
+    return out
 
 
 def chip_figures(s: Scenario, sch: Schedule, chip: ChipRun) -> dict[str, Any]:

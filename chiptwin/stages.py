@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import sparse
 
 from chiptwin import kinetics, optics, photons, pixel
 from chiptwin.config import Scenario
@@ -93,28 +94,88 @@ def _cascade_source(s: Scenario, n: int) -> LightSource:
                                            params)
 
 
-def coupling(s: Scenario) -> np.ndarray:
-    """(n_pixels, n_sites): the share of each site's emitted photons on each pixel's diode."""
+#: Largest coupling held as a dense (n_pixels, n_sites) array, in entries (128 MiB of float64).
+#: A larger one (thousands of sites on a large array) is a ``scipy.sparse`` CSR matrix.
+DENSE_COUPLING_ENTRIES: int = 1 << 24
+
+#: The sparse coupling's one approximation: a pixel whose share of a site's light is below this
+#: fraction of the site's own pixel's share is left out (contact optics, 125 µm pixels, 15 µm:
+#: from the 8th pixel out, ≈ 1e-6 of the light; the dense matrix keeps every pixel).
+COUPLING_DROP_RTOL: float = 1e-6
+
+
+def coupling(s: Scenario) -> np.ndarray | sparse.csr_matrix:
+    """(n_pixels, n_sites): the share of each site's emitted photons on each pixel's diode.
+
+    Dense up to :data:`DENSE_COUPLING_ENTRIES` entries; above, sparse (:func:`_sparse_coupling`).
+    """
     rc = site_pixels(s)
-    chip, px, o = s.chip, s.chip.pixel, s.optics
+    if s.chip.n_pixels * len(rc) > DENSE_COUPLING_ENTRIES:
+        return _sparse_coupling(s, rc)
+    chip, o = s.chip, s.optics
     under = np.zeros((chip.n_pixels, len(rc)))
     under[rc[:, 0] * chip.cols + rc[:, 1], np.arange(len(rc))] = 1.0
     if s.assay.kind == "flux":
         return under
     if o.coupling == "lens":
-        eff = optics.collection_efficiency(o.aperture_diameter_um, o.object_distance_um,
-                                           convention=o.convention)
-        return under * eff * o.transmission
-    grid = dict(n_rows=chip.rows, n_cols=chip.cols, pitch_um=chip.pitch_um,
+        return under * _lens_efficiency(s)
+    rows, cols = np.arange(chip.rows), np.arange(chip.cols)
+    return _optics_grid(s, rows, cols, rc) * o.transmission
+
+
+def _lens_efficiency(s: Scenario) -> float:
+    o = s.optics
+    eff = optics.collection_efficiency(o.aperture_diameter_um, o.object_distance_um,
+                                       convention=o.convention)
+    return float(eff) * o.transmission
+
+
+def _optics_grid(s: Scenario, rows: np.ndarray, cols: np.ndarray, rc: np.ndarray) -> np.ndarray:
+    """The na2/psf coupling of sites ``rc`` onto a ``len(rows) × len(cols)`` grid of pixels."""
+    px, o = s.chip.pixel, s.optics
+    grid = dict(n_rows=len(rows), n_cols=len(cols), pitch_um=s.chip.pitch_um,
                 diode_w_um=px.diode_w_um, diode_h_um=px.diode_h_um,
-                site_x_um=(rc[:, 1] + 0.5) * chip.pitch_um,
-                site_y_um=(rc[:, 0] + 0.5) * chip.pitch_um,
+                site_x_um=(rc[:, 1] + 0.5) * s.chip.pitch_um,
+                site_y_um=(rc[:, 0] + 0.5) * s.chip.pitch_um,
                 height_um=s.sites.height_um, convention=o.convention)
     if s.run.fidelity.optics == "na2":
-        c = optics.coupling_na2(**grid)
+        return optics.coupling_na2(**grid)
+    return optics.coupling_psf(**grid, site_radius_um=s.sites.footprint_radius_um)
+
+
+def _sparse_coupling(s: Scenario, rc: np.ndarray) -> sparse.csr_matrix:
+    """The coupling as a CSR matrix, from one site's kernel shifted to every site.
+
+    Every site sits at its pixel's centre at the same height with the same footprint, and a
+    pixel's share depends only on where it is relative to the site, so one kernel, computed on
+    a (2R + 1)² grid around a site, serves all (clipped at the array's edges, as the dense
+    matrix is). R grows until the kernel's outer ring is below :data:`COUPLING_DROP_RTOL` of its
+    centre (at most the array's size); the ring itself is then left out.
+    """
+    chip = s.chip
+    if s.assay.kind == "flux" or s.optics.coupling == "lens":
+        gain = 1.0 if s.assay.kind == "flux" else _lens_efficiency(s)
+        kernel, radius = np.full((1, 1), gain), 0
     else:
-        c = optics.coupling_psf(**grid, site_radius_um=s.sites.footprint_radius_um)
-    return c * o.transmission
+        radius = 2
+        while True:
+            n = 2 * radius + 1
+            k = _optics_grid(s, np.arange(n), np.arange(n), np.array([[radius, radius]]))
+            kernel = k.reshape(n, n) * s.optics.transmission
+            ring = np.max(np.concatenate([kernel[0], kernel[-1], kernel[:, 0], kernel[:, -1]]))
+            if ring < COUPLING_DROP_RTOL * kernel[radius, radius] or n > max(chip.rows,
+                                                                             chip.cols):
+                break
+            radius *= 2
+    dr, dc = np.nonzero(kernel >= COUPLING_DROP_RTOL * kernel[radius, radius])
+    values = kernel[dr, dc]
+    r = rc[:, :1] + (dr - radius)[None, :]
+    c = rc[:, 1:] + (dc - radius)[None, :]
+    inside = (r >= 0) & (r < chip.rows) & (c >= 0) & (c < chip.cols)
+    site = np.broadcast_to(np.arange(len(rc))[:, None], r.shape)
+    data = np.broadcast_to(values[None, :], r.shape)
+    return sparse.csr_matrix((data[inside], ((r * chip.cols + c)[inside], site[inside])),
+                             shape=(chip.n_pixels, len(rc)))
 
 
 @dataclass(frozen=True)
@@ -169,7 +230,10 @@ class EventPixels:
 
     def __init__(self, source: LightSource, coupling: np.ndarray, pixels: np.ndarray,
                  sensor: SensorModel, rng: np.random.Generator) -> None:
-        self.source, self.weights, self.pixels = source, coupling[pixels], pixels
+        weights = coupling[pixels]
+        if sparse.issparse(weights):
+            weights = weights.toarray()
+        self.source, self.weights, self.pixels = source, weights, pixels
         self.qe = sensor.qe * sensor.gain_map[pixels]
         self.dark = sensor.dark_e_per_s[pixels]
         self.need = int(np.ceil(sensor.full_well_e))

@@ -280,9 +280,18 @@ def clipped_poisson_moments(
     """
     lam_a = np.asarray(lam, dtype=np.float64)
     m = np.ceil(cap) - 1.0
+    # Far below the cap (m − 2 − λ ≥ 12√m + 50: Chernoff puts the tail below e⁻⁷⁰) the CDF is
+    # 1.0 to the last bit, as pdtr itself returns it (tested): pdtr runs near the cap only.
+    near = lam_a > (m - 2.0) - (12.0 * np.sqrt(max(m, 1.0)) + 50.0)
 
     def cdf(k: float) -> NDArray[np.float64]:
-        return pdtr(k, lam_a) if k >= 0 else np.zeros_like(lam_a)
+        if k < 0:
+            return np.zeros_like(lam_a)
+        if near.all():
+            return pdtr(k, lam_a)
+        out = np.ones_like(lam_a)
+        out[near] = pdtr(k, lam_a[near])
+        return out
 
     tail = 1.0 - cdf(m)
     mean = lam_a * cdf(m - 1) + cap * tail
