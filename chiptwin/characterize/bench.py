@@ -180,9 +180,10 @@ class Bench:
         for done, (reset, signal) in enumerate(chain, start=1):
             self.clipped += int(np.count_nonzero((reset == 0) | (reset == top)))
             self.clipped += int(np.count_nonzero((signal == 0) | (signal == top)))
-            yield self.cms(reset, signal), float(reset.mean())
+            image = self.cms(reset, signal), float(reset.mean())
             if progress is not None:
                 progress(done, n_frames)
+            yield image
 
     def cms(self, reset: np.ndarray, signal: np.ndarray) -> NDArray[np.float64]:
         """The DSP's CMS of one frame at the scenario's level. Unit: DN (ADC LSB).
