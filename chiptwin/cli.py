@@ -45,7 +45,8 @@ def build_parser() -> argparse.ArgumentParser:
     ch.add_argument("scenario", nargs="?", help="a TOML file, or the name of a bundled scenario "
                     "(default with --from: pyro_1fmol)")
     ch.add_argument("--from", dest="from_datasheet", metavar="FILE.json",
-                    help="configure the chip's pixel and ADC from this datasheet first")
+                    help="configure the chip's pixel and ADC from this datasheet (a file, or "
+                    "the name of a bundled one) first")
     ch.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="override a scenario value (repeatable)")
     ch.add_argument("--seed", type=int, help="replace scenario.seed")
@@ -208,8 +209,9 @@ def _characterize(args: argparse.Namespace) -> int:
     path = resolve_scenario(args.scenario or "pyro_1fmol")
     datasheet = args.from_datasheet
     if datasheet:
-        from chiptwin.characterize.twin import load_with_datasheet
+        from chiptwin.characterize.twin import bundled_datasheet, load_with_datasheet
 
+        datasheet = bundled_datasheet(datasheet, bundled_scenarios_folder() / "datasheets")
         scenario = load_with_datasheet(path, datasheet, args.set, args.seed)
     else:
         scenario = load_scenario(path, args.set, args.seed)

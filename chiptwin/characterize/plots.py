@@ -72,7 +72,8 @@ def snr(d: Datasheet, folder: Path) -> tuple[str, str]:
     s2d = _value(d, "temporal_dark_noise") ** 2 + ev.SIGMA2_Q / gain**2
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.loglog(mu_p[: i_sat + 1], c["snr_measured"][: i_sat + 1], "o", ms=3, label="data")
-    ax.loglog(grid, qe * grid / np.sqrt(s2d + qe * grid), "-", label="linear model")
+    bound = " (σ_d at its upper limit)" if d.figures["temporal_dark_noise"].upper_limit else ""
+    ax.loglog(grid, qe * grid / np.sqrt(s2d + qe * grid), "-", label="linear model" + bound)
     ax.loglog(grid, np.sqrt(grid), "--", color="grey", label="ideal: √μ_p")
     ax.loglog(grid, np.sqrt(qe * grid), ":", color="k", label="shot-noise limit: √(η μ_p)")
     ax.axvline(p_min, color="tab:red", lw=0.8, label=f"μ_p.min = {p_min:.4g}")

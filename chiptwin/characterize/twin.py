@@ -164,6 +164,18 @@ def apply_datasheet(raw: dict[str, Any], source: str,
     return raw
 
 
+def bundled_datasheet(name: str | Path, folder: Path) -> Path:
+    """A datasheet path as given if it exists, else the one of that name in ``folder`` (the
+    bundled ``scenarios/datasheets``, e.g. ``pyro_1fmol_chip``)."""
+    path = Path(name)
+    if path.exists():
+        return path
+    for candidate in (folder / path.name, folder / f"{path.name}.json"):
+        if candidate.is_file():
+            return candidate
+    return path
+
+
 def load_with_datasheet(path: str | Path, datasheet: str | Path, overrides: Iterable[str] = (),
                         seed: int | None = None) -> Scenario:
     """A scenario file whose chip takes its pixel and ADC values from a datasheet
@@ -172,7 +184,8 @@ def load_with_datasheet(path: str | Path, datasheet: str | Path, overrides: Iter
     from chiptwin.config.load import apply_override, read_toml, scenario_from_dict
 
     source = str(path)
-    doc = read_datasheet(Path(datasheet))
+    datasheet = Path(datasheet)
+    doc = read_datasheet(datasheet)
     raw = read_toml(path)
     base_raw = copy.deepcopy(raw)
     for text in overrides:
@@ -187,8 +200,7 @@ def load_with_datasheet(path: str | Path, datasheet: str | Path, overrides: Iter
             section.pop(key.rsplit(".", 1)[1], None)
     for text in overrides:
         apply_override(raw, text, source)
-    raw.setdefault("chip", {}).setdefault("pixel", {})["from_datasheet"] = str(
-        Path(datasheet).resolve())
+    raw.setdefault("chip", {}).setdefault("pixel", {})["from_datasheet"] = str(datasheet.resolve())
     if seed is not None:
         raw.setdefault("scenario", {})["seed"] = seed
     return scenario_from_dict(raw, source)

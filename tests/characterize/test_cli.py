@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from chiptwin.characterize import characterize
@@ -82,3 +83,38 @@ def test_progress_counts_every_image():
     characterize(chip_scenario("ccd"), progress=lambda done, total: calls.append((done, total)))
     total = 4 * 60 + 2 * 16 + 2 * 6 * 6
     assert calls[-1] == (total, total) and len(calls) == total
+
+
+def test_fixed_point_cms_with_m_a_power_of_two_is_the_float_datasheet(characterized):
+    """At ``chip.dsp.mode = fixed`` the bench reads the bit-accurate CMS register; with M = 4 its
+    division is exact (two fractional bits), so the datasheet is the float one, figure for figure
+    (same seed, same draws)."""
+    import dataclasses
+
+    s = chip_scenario("reference")
+    fixed = dataclasses.replace(s, chip=dataclasses.replace(
+        s.chip, dsp=dataclasses.replace(s.chip.dsp, mode="fixed")))
+    a = characterized("reference").to_json()["parameters"]
+    b = characterize(fixed).to_json()["parameters"]
+    assert {k: v["value"] for k, v in a.items()} == {k: v["value"] for k, v in b.items()}
+
+
+def test_bundled_datasheet_is_current(characterized, tmp_path):
+    """Regression: ``scenarios/datasheets/pyro_1fmol_chip.json`` is the reference chip's
+    datasheet as chiptwin measures it now, every figure within 5 combined standard errors (exact
+    where it has none). Regenerate it with ``chiptwin characterize pyro_1fmol --out OUT`` and copy
+    ``OUT/emva1288.json`` there. It also configures a twin by name (``--from pyro_1fmol_chip``)."""
+    from tests.conftest import SCENARIOS
+
+    stored = json.loads((SCENARIOS / "datasheets" / "pyro_1fmol_chip.json").read_text())
+    now = characterized("reference").to_json()
+    for key, p in now["parameters"].items():
+        old = stored["parameters"][key]
+        if p["value"] is None or old["value"] is None:
+            assert p["value"] is None and old["value"] is None, key
+            continue
+        se = np.hypot(p["std_error"] or 0.0, old["std_error"] or 0.0)
+        assert abs(p["value"] - old["value"]) <= max(5 * se, 1e-9 * abs(old["value"])), key
+    assert stored["flags"] == now["flags"] and stored["camera"] == now["camera"]
+    assert main(["characterize", "--from", "pyro_1fmol_chip", "--out", str(tmp_path / "o"),
+                 "--quiet"]) == 0
