@@ -8,7 +8,8 @@ Three measurements, each warm (numba kernels compiled and cached first):
    13-bit ADC) in the same process, interleaved. ``run()`` also makes the light, the moments, the
    DSP and the detection; the ratio says what the chip model costs over the bare chain.
 2. Peak RSS of ``run()`` at 256² for 1,520 and 3,040 frames, each in a fresh process
-   (``ru_maxrss``), to show memory flat in frames.
+   (``VmHWM`` of ``/proc/self/status``: ``ru_maxrss`` survives ``exec`` on Linux, so a child
+   started from this process would report this process's peak), to show memory flat in frames.
 3. ``pyro_array_256`` end to end (``run()``, then the outputs written), wall time and peak RSS.
 
 Usage: ``python benchmarks/bench_scale.py [--sides 64 128 256] [--rounds 3] [--skip-rss]
@@ -95,22 +96,31 @@ def per_pixel_frame(sides: list[int], rounds: int) -> list[dict]:
     return rows
 
 
+def vm_hwm_kb() -> int:
+    """This process's peak resident set (kB), from ``/proc/self/status``."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1])
+    raise RuntimeError("no VmHWM in /proc/self/status")
+
+
 def peak_rss_mb(side: int, duration_s: float) -> float:
     """``run()`` in a fresh process; its peak resident set (MB)."""
-    code = (f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import bench_scale, "
-            f"resource; from chiptwin.run import run; run(bench_scale.grown({side}, {duration_s}));"
-            "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)")
+    code = (f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import bench_scale; "
+            f"from chiptwin.run import run; run(bench_scale.grown({side}, {duration_s}));"
+            "print(bench_scale.vm_hwm_kb())")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return int(out.stdout.split()[-1]) / 1024
 
 
 def array_end_to_end() -> dict:
-    code = ("import time, resource, tempfile, json; from chiptwin.run import run; "
+    code = (f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import bench_scale; "
+            "import time, tempfile, json; from chiptwin.run import run; "
             "from chiptwin.report import write_outputs; t0 = time.perf_counter(); "
             f"r = run({str(ARRAY)!r}); t1 = time.perf_counter(); "
             "d = tempfile.mkdtemp(); write_outputs(r, d + '/out'); t2 = time.perf_counter(); "
             "a = r.summary['array']; print(json.dumps({'run_s': t1 - t0, 'write_s': t2 - t1, "
-            "'rss_mb': resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "
+            "'rss_mb': bench_scale.vm_hwm_kb() / 1024, "
             "'stage_time_s': r.summary['stage_time_s'], 'array': a}))")
     subprocess.run([sys.executable, "-c", f"from chiptwin.run import run; run({str(PYRO)!r})"],
                    check=True)  # compile and cache the kernels first
@@ -120,7 +130,7 @@ def array_end_to_end() -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--sides", type=int, nargs="+", default=[64, 128, 256])
+    p.add_argument("--sides", type=int, nargs="*", default=[64, 128, 256])
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--skip-rss", action="store_true")
     p.add_argument("--skip-array", action="store_true")

@@ -194,9 +194,11 @@ def pixel_frames(scene: Scene, t_int_s: float, gain_error: float, start: int = 0
     photons = scene.photons_block(start, stop)
     dark_e = sensor.dark_e_per_s * t_int_s
     mean_e = pixel.mean_electrons(photons, sensor.qe, sensor.gain_map, dark_e)
-    cds_e, cds_var_e2 = pixel.expected_frame(
-        photons, sensor.qe, sensor.gain_map, dark_e, sensor.full_well_e, sensor.ktc_e,
-        sensor.read_noise_e, sensor.cms_samples, sensor.true_cds)
+    # pixel.expected_frame's arithmetic on the charge just computed (it would compute it again)
+    cds_e, cds_var_e2 = pixel.clipped_poisson_moments(mean_e, sensor.full_well_e)
+    cds_var_e2 = cds_var_e2 + 2.0 * sensor.read_noise_e * sensor.read_noise_e / sensor.cms_samples
+    if not sensor.true_cds:
+        cds_var_e2 = cds_var_e2 + 2.0 * sensor.ktc_e * sensor.ktc_e
     to_lsb = (1.0 + gain_error) / sensor.e_per_lsb
     read_lsb = sensor.read_noise_e / sensor.e_per_lsb * (1.0 + gain_error)
     quant_var = 2.0 * pixel.quantization_var_of_mean(sensor.cms_samples, read_lsb)
