@@ -160,12 +160,18 @@ def _array_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
         f"; {right:.1%} called right (wrong ones ringed)" if right is not None else "")
     plots = [_save(fig, folder, "site_map.png", caption)]
     fig, ax = plt.subplots(figsize=(7, 3.5))
-    ax.hist(snr_db, bins=60, color="tab:blue")
+    if "site_called_right" in a:
+        right = a["site_called_right"]
+        ax.hist([snr_db[right], snr_db[~right]], bins=60, stacked=True,
+                color=["tab:blue", "tab:red"], label=["called right", "called wrong"])
+    else:
+        ax.hist(snr_db, bins=60, color="tab:blue")
     ax.axvline(10 * np.log10(s.run.detection_snr_power), color="k", ls=":", lw=1,
                label="detection threshold")
     ax.set(xlabel="SNR (power, dB)", ylabel="sites", title="Distribution of per-site SNR")
     ax.legend(fontsize=7)
-    plots.append(_save(fig, folder, "snr_histogram.png", "Histogram of the per-site SNR"))
+    plots.append(_save(fig, folder, "snr_histogram.png",
+                       "Histogram of the per-site SNR (stacked: sites called right and wrong)"))
     return plots
 
 

@@ -128,3 +128,18 @@ def test_sparse_coupling_is_the_dense_one_within_its_tolerance(small_toml, monke
     np.testing.assert_allclose(got[kept], dense[kept], rtol=1e-9, atol=0)
     own = dense[stages.site_pixel_indices(s), np.arange(len(sites))]
     assert np.all(dense[~kept] <= stages.COUPLING_DROP_RTOL * own[np.nonzero(~kept)[1]] * 1.0001)
+
+
+def test_an_array_of_sites_gets_its_figures_map_and_histogram(small_toml, tmp_path):
+    """Every pixel a site (24 sites): summary['array'] counts the sites called right and gives
+    the SNR percentiles, consistent with the per-site rows; the report maps and histograms them."""
+    result = run(small_toml, ["sites.at_pixels=\"all\""])
+    arr, sites = result.summary["array"], result.summary["sites"]
+    right = [c == result.summary["true_sequence"] for c in result.summary["called_sequences"]]
+    assert arr["n_sites"] == len(sites) == 24 and arr["sites_called_right"] == sum(right)
+    assert arr["fraction_called_right"] == pytest.approx(sum(right) / 24)
+    assert arr["snr_power_percentiles"]["p50"] == pytest.approx(
+        np.median([site["snr_power"] for site in sites]))
+    folder = write_outputs(result, tmp_path / "out")
+    assert (folder / "site_map.png").exists() and (folder / "snr_histogram.png").exists()
+    assert "sites called right" in (folder / "report.md").read_text()
