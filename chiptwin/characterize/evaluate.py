@@ -291,7 +291,9 @@ def _root(s2: float | None, s2_se: float | None, scale: float, scale_se: float |
     if s2_se is None:
         return Figure(value)
     rel = np.hypot(s2_se / (2.0 * s2), (scale_se or 0.0) / scale)
-    return Figure(value, float(value * rel))
+    weak = s2 < 2.0 * s2_se
+    return Figure(value, float(value * rel), note="not significant: the fixed-pattern variance "
+                  "is within 2σ of zero" if weak else "")
 
 
 # --- dark current against temperature -----------------------------------------------------------

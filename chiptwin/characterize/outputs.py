@@ -120,6 +120,8 @@ def _figure_tables(d: Datasheet) -> list[str]:
             value = ("≤ " if f.upper_limit else "") + _cell(f.value)
             if f.value is None and f.note:
                 value = "not resolved"
+            elif f.note.startswith("not significant"):
+                value += " (within 2σ of 0)"
             row = (f"| {name} | {symbol} | {value} | {unit} | {_cell(f.std_error)} | "
                    f"{_cell(d.scenario_values.get(key, (None, ''))[0])} |")
             if extra:
