@@ -52,6 +52,16 @@ def build_parser() -> argparse.ArgumentParser:
     ch.add_argument("--seed", type=int, help="replace scenario.seed")
     ch.add_argument("--out", help="output folder (default: out/<scenario name>-emva1288)")
     ch.add_argument("--quiet", action="store_true", help="no progress, no table")
+    la = sub.add_parser("ladder", help="speed against error: every fidelity level of a scene "
+                        "against the most faithful combination")
+    _scenario_args(la)
+    la.add_argument("--out", help="output folder (default: out/<scenario name>_ladder)")
+    la.add_argument("--replicates", type=int, default=5,
+                    help="seeds per level (default 5; common random numbers across levels)")
+    la.add_argument("--json", help="also write ladder.json to this file")
+    la.add_argument("--reference", action="append", default=[], metavar="STAGE=LEVEL",
+                    help="pin a level of the reference, e.g. --reference dsp=fixed (repeatable;"
+                         " default: the most faithful level the scene accepts)")
     st = sub.add_parser("study", help="run a budget study: axes × replicates → the answer")
     st.add_argument("study", help="a study TOML file, or the name of a bundled study")
     st.add_argument("--out", help="output folder (default: out/<study name>); an existing one "
@@ -164,6 +174,8 @@ def _dispatch(args: argparse.Namespace) -> int:
         return 0
     if args.command == "dsp-report":
         return _dsp_report(scenario, args.json)
+    if args.command == "ladder":
+        return _ladder(scenario, args)
     from chiptwin.report import check_out_dir, headline, write_outputs
     from chiptwin.run import run
 
@@ -186,10 +198,7 @@ def _dsp_report(scenario, json_path: str | None) -> int:
     from chiptwin.run import stage_rng
 
     if json_path:
-        target = Path(json_path)
-        if target.is_dir() or not target.parent.is_dir():
-            raise ScenarioError("chiptwin", "--json", json_path,
-                                "must be a file path in an existing folder")
+        _check_json_path(json_path)
     report = dsp_report(scenario, stage_rng(scenario.scenario.seed, "dsp_stress"))
     print(format_error_table(report))
     print(f"all bounds met: {report['all_bounds_ok']}")
@@ -283,6 +292,47 @@ def _study(args: argparse.Namespace) -> int:
           f"in {result.summary['wall_time_s']:.1f} s; outputs in {out}/ (study.json, "
           "results.csv, results.sqlite, report.md)")
     return 0
+
+
+def _ladder(scenario, args: argparse.Namespace) -> int:
+    import json
+
+    from chiptwin.ladder import run_ladder, table, write_ladder
+    from chiptwin.report import check_out_dir
+
+    out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}_ladder",
+                        marker="ladder.json")
+    if args.json:
+        _check_json_path(args.json)
+    progress = _Progress("levels", after_s=0.0)
+    ladder = run_ladder(scenario, args.replicates, _reference_levels(args.reference),
+                        progress=progress)
+    print(table(ladder))
+    write_ladder(ladder, out)
+    if args.json:
+        Path(args.json).write_text(json.dumps(ladder, indent=1) + "\n")
+    print(f"  outputs in {out}/ (ladder.json, ladder.png, ladder.md)")
+    return 0
+
+
+def _reference_levels(pins: list[str]) -> dict[str, str]:
+    from chiptwin.ladder import LEVELS
+
+    out = {}
+    for pin in pins:
+        stage, _, level = pin.partition("=")
+        if level not in LEVELS.get(stage, ()):
+            raise ScenarioError("chiptwin", "--reference", pin, "must be STAGE=LEVEL, one of "
+                                + ", ".join(f"{k}={v}" for k, lv in LEVELS.items() for v in lv))
+        out[stage] = level
+    return out
+
+
+def _check_json_path(json_path: str) -> None:
+    target = Path(json_path)
+    if target.is_dir() or not target.parent.is_dir():
+        raise ScenarioError("chiptwin", "--json", json_path,
+                            "must be a file path in an existing folder")
 
 
 def _first_comment(path: Path) -> str:

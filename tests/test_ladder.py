@@ -80,3 +80,22 @@ def test_one_replicate_is_refused(ladder):
     s, _ = ladder
     with pytest.raises(ScenarioError, match="--replicates"):
         run_ladder(s, replicates=1)
+
+
+def test_cli_ladder_writes_its_outputs(tmp_path, capsys):
+    from chiptwin.cli import main
+    from tests.conftest import SMALL
+
+    path = tmp_path / "small.toml"
+    path.write_text(SMALL)
+    out = tmp_path / "lad"
+    args = ["ladder", str(path), "--out", str(out), "--replicates", "2",
+            "--reference", "dsp=fixed", "--reference", "photons=binned",
+            "--reference", "kinetics=closed_form"]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert "reference" in text and "cheapest" in text
+    assert {p.name for p in out.iterdir()} == {"ladder.json", "ladder.png", "ladder.md"}
+    for bad in (["--replicates", "1"], ["--reference", "dsp=vhdl"]):
+        assert main(["ladder", str(path), "--out", str(tmp_path / "x"), *bad]) == 2
+        assert not (tmp_path / "x").exists()
