@@ -124,9 +124,10 @@ def saturation_dn(t: TemporalSeries) -> float:
 
 def sensitivity_range(t: TemporalSeries, i_sat: int) -> slice:
     """The points of the K and R regressions: first to the last with
-    ``μ_y − μ_y.dark ≤ 70 %`` of its saturation value."""
+    ``μ_y − μ_y.dark ≤ 70 %`` of its saturation value, up to saturation (past it the dark signal
+    keeps growing under a clipped output, and ``μ_y − μ_y.dark`` falls back into the range)."""
     y, _ = _signal(t)
-    below = np.flatnonzero(y <= SENSITIVITY_TOP * y[i_sat])
+    below = np.flatnonzero(y[: i_sat + 1] <= SENSITIVITY_TOP * y[i_sat])
     return slice(0, int(below.max()) + 1 if below.size else 1)
 
 
@@ -232,10 +233,12 @@ class Linearity:
 
 def linearity(t: TemporalSeries, i_sat: int) -> Linearity:
     """Weighted (1/y) straight line of ``μ_y − μ_y.dark`` on ``μ_p`` between 5 % and 95 % of
-    saturation, and the relative deviation of every point from it."""
+    saturation, on the rising part of the series (up to saturation), and the relative deviation
+    of every point from it."""
     y, _ = _signal(t)
     lo, hi = LINEARITY_RANGE[0] * y[i_sat], LINEARITY_RANGE[1] * y[i_sat]
-    first, last = int(np.flatnonzero(y >= lo).min()), int(np.flatnonzero(y <= hi).max())
+    rising = y[: i_sat + 1]
+    first, last = int(np.flatnonzero(rising >= lo).min()), int(np.flatnonzero(rising <= hi).max())
     sl = slice(first, last + 1)
     slope, offset = np.polyfit(t.mu_p[sl], y[sl], 1, w=1.0 / y[sl])
     fit = offset + slope * t.mu_p

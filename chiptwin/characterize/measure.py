@@ -228,7 +228,8 @@ def spatial_series(bench: Bench, protocol: Protocol, temporal: TemporalSeries,
 def dark_plan(bench: Bench, protocol: Protocol, temporal: TemporalSeries) -> NDArray[np.float64]:
     """Exposure times of the temperature series: the longest takes the hottest chip's dark charge
     to :data:`DARK_SHARE` of the measured saturation (planned with the measured dark current and
-    a :data:`PLANNING_DOUBLING_C` doubling), within [PTC's longest, ``max_dark_exposure_s``]."""
+    a :data:`PLANNING_DOUBLING_C` doubling), at most ``max_dark_exposure_s``; the PTC's longest
+    exposure when no dark current was measured."""
     t_ptc = float(temporal.t_exp_s[-1])
     gain, _ = ev.system_gain(temporal, ev.saturation_index(temporal))
     slope_dn, _ = ev.ols(temporal.t_exp_s, temporal.column("dark", "mean"),
@@ -238,7 +239,7 @@ def dark_plan(bench: Bench, protocol: Protocol, temporal: TemporalSeries) -> NDA
     if dark_e > 0:
         hottest = dark_e * 2.0 ** (max(protocol.temperature_offsets_C) / PLANNING_DOUBLING_C)
         sat = ev.saturation_dn(temporal) / gain
-        t_max = float(np.clip(DARK_SHARE * sat / hottest, t_ptc, protocol.max_dark_exposure_s))
+        t_max = float(min(DARK_SHARE * sat / hottest, protocol.max_dark_exposure_s))
     k = np.arange(1, protocol.dark_exposures + 1)
     return t_max * k / protocol.dark_exposures
 

@@ -7,6 +7,8 @@
   61 e⁻/DN), M = 1.
 * ``ccd``: a cooled CCD-like chip, 64 × 64 pixels of 24 µm, −40 °C, 16-bit ADC, 10 e⁻ read noise,
   3e5 e⁻ full well, M = 1 (the cooled camera of the paper's CCD experiment, REFERENCE §4).
+* ``dark``: the bundled ``snr10_requirement`` chip: 0.36 nA/cm² of dark current over 10 s
+  exposures (a third of the well is dark charge), no PRNU or DSNU, M = 2.
 """
 
 from __future__ import annotations
@@ -52,8 +54,9 @@ CHIPS = {
 
 def chip_scenario(name: str):
     """The Scenario of one of the three chips."""
-    if name == "reference":
-        path = SCENARIOS / "pyro_1fmol.toml"
+    bundled = {"reference": "pyro_1fmol", "dark": "snr10_requirement"}
+    if name in bundled:
+        path = SCENARIOS / f"{bundled[name]}.toml"
         return scenario_from_dict(read_toml(path), str(path))
     raw = copy.deepcopy(FLUX)
     raw["scenario"]["name"] = name
