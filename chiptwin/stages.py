@@ -98,6 +98,12 @@ def _cascade_source(s: Scenario, n: int) -> LightSource:
 #: A larger one (thousands of sites on a large array) is a ``scipy.sparse`` CSR matrix.
 DENSE_COUPLING_ENTRIES: int = 1 << 24
 
+#: Largest array whose coupling is integrated over every pixel for every site (the dense path).
+#: Above 64 × 64 pixels it is the shifted kernel (:func:`_sparse_coupling`): integrating the psf
+#: over all 128 × 128 pixels took 236 MB of temporaries and 0.4 s for two sites, more than the
+#: whole chip model then holds.
+DENSE_COUPLING_PIXELS: int = 64 * 64
+
 #: The sparse coupling's one approximation: a pixel whose share of a site's light is below this
 #: fraction of the site's own pixel's share is left out (contact optics, 125 µm pixels, 15 µm:
 #: from the 8th pixel out, ≈ 1e-6 of the light; the dense matrix keeps every pixel).
@@ -107,10 +113,12 @@ COUPLING_DROP_RTOL: float = 1e-6
 def coupling(s: Scenario) -> np.ndarray | sparse.csr_matrix:
     """(n_pixels, n_sites): the share of each site's emitted photons on each pixel's diode.
 
-    Dense up to :data:`DENSE_COUPLING_ENTRIES` entries; above, sparse (:func:`_sparse_coupling`).
+    Dense up to :data:`DENSE_COUPLING_ENTRIES` entries and :data:`DENSE_COUPLING_PIXELS`
+    pixels; above either, sparse (:func:`_sparse_coupling`).
     """
     rc = site_pixels(s)
-    if s.chip.n_pixels * len(rc) > DENSE_COUPLING_ENTRIES:
+    if (s.chip.n_pixels * len(rc) > DENSE_COUPLING_ENTRIES
+            or s.chip.n_pixels > DENSE_COUPLING_PIXELS):
         return _sparse_coupling(s, rc)
     chip, o = s.chip, s.optics
     under = np.zeros((chip.n_pixels, len(rc)))

@@ -113,7 +113,8 @@ def test_saved_frames_are_what_the_dsp_saw(wide, tmp_path, level):
 
 
 def test_sparse_coupling_is_the_dense_one_within_its_tolerance(small_toml, monkeypatch):
-    """Above DENSE_COUPLING_ENTRIES the coupling is one site's kernel shifted to every site:
+    """Above DENSE_COUPLING_ENTRIES (or DENSE_COUPLING_PIXELS) the coupling is one site's kernel
+    shifted to every site:
     equal to the dense psf matrix wherever kept, and what it leaves out is below
     COUPLING_DROP_RTOL of the site's own pixel (edges and corners included)."""
     sites = [[r, c] for r in range(0, 24, 3) for c in range(0, 24, 5)]
@@ -122,6 +123,9 @@ def test_sparse_coupling_is_the_dense_one_within_its_tolerance(small_toml, monke
     dense = stages.coupling(s)
     monkeypatch.setattr(stages, "DENSE_COUPLING_ENTRIES", 0)
     sp = stages.coupling(s)
+    monkeypatch.setattr(stages, "DENSE_COUPLING_ENTRIES", 1 << 24)
+    monkeypatch.setattr(stages, "DENSE_COUPLING_PIXELS", 0)
+    assert (stages.coupling(s) != sp).nnz == 0
     assert sp.shape == dense.shape and sp.nnz < dense.size
     got = sp.toarray()
     kept = got > 0
