@@ -122,6 +122,7 @@ class Study:
     batch: int = 10
     verify: int = 1
     description: str = ""
+    datasheet_text: str = ""  # the base scenario's from_datasheet file, part of the identity
 
     @property
     def budget_axes(self) -> tuple[Axis, ...]:
@@ -134,7 +135,8 @@ class Study:
     @property
     def hash(self) -> str:
         """Identity of what the rows depend on: the study text and the resolved base scenario."""
-        blob = json.dumps([self.text, self.base_raw], sort_keys=True, default=str)
+        blob = json.dumps([self.text, self.base_raw, self.datasheet_text], sort_keys=True,
+                          default=str)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
     def points(self) -> list[Point]:
@@ -191,6 +193,7 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
                       "(it names the output folder)")
     scen_path = _scenario_path(err, st, folder, resolve_scenario)
     base_raw = read_toml(scen_path)
+    datasheet_text = _pin_datasheet(base_raw, scen_path)
     for k, v in _table(err, st, "set").items():
         _check_key(err, "study.set", k, base_raw)
         _put(base_raw, k, v, source)
@@ -215,10 +218,24 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
                           default=10),
         verify=err.integer(st, "verify", 0, 10, "points above a bisect answer re-checked",
                            default=1),
-        description=st.get("description", ""),
+        description=st.get("description", ""), datasheet_text=datasheet_text,
     )
     _check_whole(err, study)
     return study
+
+
+def _pin_datasheet(base_raw: dict[str, Any], scenario_path: Path) -> str:
+    """A base scenario configured from an EMVA 1288 datasheet: the file is pinned by its
+    absolute path (points carry another source name) and its text returned, so a changed
+    datasheet changes the study's identity and is refused for resumption like a changed file."""
+    pixel = base_raw.get("chip", {}).get("pixel", {})
+    if not isinstance(pixel, dict) or "from_datasheet" not in pixel:
+        return ""
+    from chiptwin.characterize.twin import resolve_path
+
+    path = resolve_path(pixel["from_datasheet"], str(scenario_path)).resolve()
+    pixel["from_datasheet"] = str(path)
+    return path.read_text(encoding="utf-8")
 
 
 def _check_whole(err: _Errors, study: Study) -> None:

@@ -2,8 +2,9 @@
 
 Tables:
 
-- ``study``: one row: the study file's text, its hash (with the resolved base scenario), the
-  resolved base scenario as JSON, the chiptwin version, and the time it was created.
+- ``study``: one row: the study file's text, its hash (with the resolved base scenario and its
+  datasheet), the resolved base scenario as JSON, the text of the EMVA 1288 datasheet it is
+  configured from (or ""), the chiptwin version, and the time it was created.
 - ``runs``: one row per finished run: ``point`` (the point's hash), ``kind`` (``point`` or
   ``reference``), ``replicate``, ``seed``, ``params`` JSON, ``metrics`` JSON, ``status``
   (``ok``/``invalid``/``error``), ``message``, ``wall_s``. ``(point, replicate)`` is the key.
@@ -30,7 +31,8 @@ _SCHEMA = """
 CREATE TABLE IF NOT EXISTS study (
     id INTEGER PRIMARY KEY CHECK (id = 1),
     name TEXT NOT NULL, text TEXT NOT NULL, hash TEXT NOT NULL,
-    base_scenario TEXT NOT NULL, chiptwin_version TEXT NOT NULL, created REAL NOT NULL);
+    base_scenario TEXT NOT NULL, datasheet TEXT NOT NULL, chiptwin_version TEXT NOT NULL,
+    created REAL NOT NULL);
 CREATE TABLE IF NOT EXISTS runs (
     point TEXT NOT NULL, kind TEXT NOT NULL, replicate INTEGER NOT NULL, seed INTEGER NOT NULL,
     params TEXT NOT NULL, metrics TEXT, status TEXT NOT NULL
@@ -56,16 +58,19 @@ class Store:
         self._claim(study)
 
     def _claim(self, study: Any) -> None:
-        row = self.db.execute("SELECT text, hash, base_scenario FROM study").fetchone()
+        row = self.db.execute("SELECT text, hash, base_scenario, datasheet FROM study").fetchone()
         base = json.dumps(study.base_raw, sort_keys=True)
         if row is None:
-            self.db.execute("INSERT INTO study VALUES (1, ?, ?, ?, ?, ?, ?)",
-                            (study.name, study.text, study.hash, base, __version__, time.time()))
+            self.db.execute("INSERT INTO study VALUES (1, ?, ?, ?, ?, ?, ?, ?)",
+                            (study.name, study.text, study.hash, base, study.datasheet_text,
+                             __version__, time.time()))
             return
         if row[1] != study.hash:
+            change = describe_change(row[0], row[2], study.text, base)
+            if row[3] != study.datasheet_text:
+                change = "the scenario's EMVA 1288 datasheet (chip.pixel.from_datasheet)"
             raise ScenarioError(study.source, "(resume)", self.path,
-                                "this folder holds another version of the study: "
-                                + describe_change(row[0], row[2], study.text, base)
+                                "this folder holds another version of the study: " + change
                                 + "; use --fresh to start over, or another --out")
 
     def done(self) -> set[tuple[str, int]]:

@@ -140,3 +140,27 @@ def test_scheduler_without_the_dask_extra_names_the_extra(small_study, monkeypat
                  "--quiet"]) == 2
     assert "chiptwin[dask]" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_changed_datasheet_is_refused_for_resumption(tmp_path):
+    """A scenario configured from an EMVA 1288 datasheet: the datasheet is part of the study's
+    identity, so editing it cannot resume onto rows of the old chip."""
+    from chiptwin.cli import bundled_scenarios_folder
+
+    sheet = tmp_path / "sheet.json"
+    sheet.write_text((bundled_scenarios_folder() / "datasheets" / "pyro_1fmol_chip.json")
+                     .read_text())
+    text = STUDY.replace("replicates = 3", "replicates = 1").replace(
+        'reference = { "chip.adc.bits" = 14 }', "").replace(
+        'key = "chip.adc.bits"\nvalues = [6, 8, 10]', 'key = "chip.dsp.cms_samples"\n'
+        "values = [2, 4]").replace('name = "snr_loss_db"', 'name = "snr_power"')
+    path = write_study(tmp_path, text)
+    scen = tmp_path / "small.toml"
+    scen.write_text(scen.read_text() + '\n[chip.pixel]\nfrom_datasheet = "sheet.json"\n')
+    db = tmp_path / "results.sqlite"
+    first = run_study(path, workers=1, db=db)
+    assert all(r["status"] == "ok" for r in first.table)
+    data = json.loads(sheet.read_text())
+    sheet.write_text(json.dumps(data, indent=2) + "\n")  # same content, new text: still new
+    with pytest.raises(ScenarioError, match="datasheet"):
+        run_study(path, workers=1, db=db)
