@@ -128,7 +128,9 @@ def prepare(s: Scenario, timer: StageTimer | None = None) -> Scene:
     with timer("kinetics"):
         source = stages.light_source(s)
         edges = np.array([sch.window_s(k) for k in range(sch.n_frames)]).reshape(-1)
-        site_photons = source.photons(edges)[:, ::2]
+        # integration windows only (not the gaps between them), as a copy: a strided view would
+        # keep the whole (n_sites, 2·n_frames) array alive for the run
+        site_photons = np.ascontiguousarray(source.photons(edges)[:, ::2])
     with timer("optics"):
         coupling = stages.coupling(s)
     return Scene(sch, source, site_photons, coupling, chip_sensor(s))
