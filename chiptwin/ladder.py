@@ -235,15 +235,11 @@ def write_ladder(ladder: dict[str, Any], out_dir) -> None:
     """``ladder.json``, ``ladder.png`` (error against wall time, log axes, Pareto front) and
     ``ladder.md`` into ``out_dir``, replacing a previous ladder whole."""
     import json
-    import shutil
-    import tempfile
-    from pathlib import Path
 
-    from chiptwin.report import check_out_dir
+    from chiptwin.report import check_out_dir, replacing
 
     out = check_out_dir(out_dir, marker="ladder.json")
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
+    with replacing(out) as tmp:
         (tmp / "ladder.json").write_text(json.dumps(ladder, indent=1) + "\n")
         figure = "snr_rel"
         _plot(ladder, figure, tmp / "ladder.png")
@@ -251,12 +247,6 @@ def write_ladder(ladder: dict[str, Any], out_dir) -> None:
             f"# Fidelity ladder: {ladder['scenario']}\n\n{ladder['method']}; "
             f"{ladder['replicates']} replicates.\n\n```\n{table(ladder)}\n```\n\n"
             f"![{figure} against wall time](ladder.png)\n")
-        if out.exists():
-            shutil.rmtree(out)
-        tmp.rename(out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
 
 
 def _plot(ladder: dict[str, Any], figure: str, path) -> None:

@@ -10,6 +10,8 @@ import json
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -60,11 +62,26 @@ def _refuse(out_dir: str | Path, allowed: str) -> None:
     raise ScenarioError("chiptwin", "--out", str(out_dir), allowed)
 
 
+@contextmanager
+def replacing(out: Path) -> Iterator[Path]:
+    """A fresh temporary folder beside ``out`` to write outputs into: when the block ends it
+    replaces ``out`` whole; on any error it is removed, so a crashed or refused run never leaves
+    a half-written folder that looks complete."""
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        yield tmp
+        if out.exists():
+            shutil.rmtree(out)
+        tmp.rename(out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
 def write_outputs(result: Result, out_dir: str | Path) -> Path:
     """Write every output of ``result`` into ``out_dir``, replacing a previous output whole."""
     out = check_out_dir(out_dir)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
+    with replacing(out) as tmp:
         (tmp / "summary.json").write_text(json.dumps(result.summary, indent=2) + "\n")
         np.savez_compressed(tmp / "arrays.npz", **result.arrays, **result.trace.to_arrays())
         if result.frames_path is not None:  # [run] save_frames: streamed during the run
@@ -72,12 +89,6 @@ def write_outputs(result: Result, out_dir: str | Path) -> Path:
             result.frames_path = None
         plots = make_plots(result, tmp)
         (tmp / "report.md").write_text(report_markdown(result.summary, plots))
-        if out.exists():
-            shutil.rmtree(out)
-        tmp.rename(out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out
 
 

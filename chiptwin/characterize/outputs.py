@@ -11,8 +11,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -135,21 +133,14 @@ def write_outputs(d: Datasheet, meta: dict[str, Any], out_dir: str | Path) -> Pa
     """Write ``emva1288.json``, ``datasheet.md`` and the plots into ``out_dir``, whole or not at
     all, replacing a previous characterisation there."""
     from chiptwin.characterize.plots import make_plots
-    from chiptwin.report import check_out_dir
+    from chiptwin.report import check_out_dir, replacing
 
     out = check_out_dir(out_dir, marker=JSON_NAME)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
+    with replacing(out) as tmp:
         plots = make_plots(d, tmp)
         (tmp / "datasheet.md").write_text(markdown(d, meta, plots))
         (tmp / JSON_NAME).write_text(json.dumps(to_json(d, meta), indent=2,
                                                 ensure_ascii=False) + "\n")
-        if out.exists():
-            shutil.rmtree(out)
-        tmp.rename(out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out
 
 
