@@ -27,9 +27,26 @@ T_ROOM_K: float = 300.0
 TICKS_PER_S: int = 1_000_000_000
 """The chip model's clock: one tick is one nanosecond."""
 
+TICK_S: float = 1.0 / TICKS_PER_S
+"""One tick, the shortest time the chip model resolves. Unit: s."""
+
+MAX_TIME_S: float = 1.0e7
+"""The longest time a scenario may give (≈ 116 days). Unit: s.
+
+Longer than any luminescence experiment: glow assays last minutes to hours, the longest are
+bioluminescence reporter recordings of circadian rhythms over days to a few weeks. In ticks it is
+1e16, far below the int64 range (9.2e18) the chip model's event times are stored in, and a float64
+of that size is exact to 0.93 ns, so :func:`s_to_ticks` neither overflows nor is off by more than
+one tick anywhere between :data:`TICK_S` and here.
+"""
+
 
 def s_to_ticks(t_s: float) -> int:
-    """Seconds to integer nanosecond ticks, rounded to the nearest tick."""
+    """Seconds to integer nanosecond ticks, rounded to the nearest tick.
+
+    Scenario times are validated to lie in [:data:`TICK_S`, :data:`MAX_TIME_S`] (or be 0), so
+    they give at least one tick and at most 1e16.
+    """
     return int(round(t_s * TICKS_PER_S))
 
 

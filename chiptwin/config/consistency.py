@@ -1,18 +1,24 @@
 """Cross-field rules: values that are each in range but cannot work together.
 
-Each rule raises :class:`ScenarioError` naming the key a user would change.
+Each rule raises :class:`ScenarioError` naming the key a user would change. The last ones
+(:func:`chiptwin.config.budget.check_budget`) refuse a run too large to work: its memory, the
+counts its samplers would be handed, the chip model's time span.
 """
 
 from __future__ import annotations
 
 import re
 
+from chiptwin.config.budget import FOOTPRINT_PER_HEIGHT_MAX, check_budget
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
 from chiptwin.constants import Q_E, s_to_ticks
 from chiptwin.dsp.fixed import accumulator_bits_needed
 
 BASES = frozenset("ACGT")
+
+#: Narrowest ADC input range: below any ADC's (integrated ones span 0.1–5 V). Unit: V.
+ADC_SPAN_MIN_V = 1e-3
 
 #: Fidelity levels that exist. Others are refused at validation time, not half-run.
 BUILT_LEVELS: dict[str, tuple[str, ...]] = {
@@ -26,7 +32,7 @@ BUILT_LEVELS: dict[str, tuple[str, ...]] = {
 def check_consistency(s: Scenario) -> None:
     """Run every cross-field rule on a built scenario."""
     for rule in (_name, _fidelity, _assay, _sites, _optics, _timing, _adc_range, _memory,
-                 _duration):
+                 _duration, check_budget):
         rule(s)
 
 
@@ -37,8 +43,9 @@ def _fail(s: Scenario, key: str, value: object, allowed: str) -> None:
 def _name(s: Scenario) -> None:
     """The name becomes the default output folder ``out/<name>``: one plain path component."""
     name = s.scenario.name
-    if not re.fullmatch(r"[A-Za-z0-9_.-]+", name) or name in (".", ".."):
-        _fail(s, "scenario.name", name, "must be letters, digits, '_', '-', '.' (a folder name)")
+    if not re.fullmatch(r"[A-Za-z0-9_.-]{1,255}", name) or name in (".", ".."):
+        _fail(s, "scenario.name", name,
+              "must be 1 to 255 letters, digits, '_', '-', '.' (a folder name)")
 
 
 def _fidelity(s: Scenario) -> None:
@@ -65,15 +72,46 @@ def _fidelity(s: Scenario) -> None:
               f"contradicts chip.dsp.mode = {s.chip.dsp.mode!r}; set one of them")
 
 
+#: Longest template, key or flow order: far beyond a pyrosequencing read (≈ 400–1,000 bases).
+MAX_BASES = 100_000
+
+
 def _assay(s: Scenario) -> None:
     a = s.assay
     if a.kind != "pyrosequencing":
         return
     for key, text in (("template", a.template), ("flow_order", a.flow_order)):
-        if not text or set(text) - BASES:
-            _fail(s, f"assay.{key}", text, "must be a non-empty string of A, C, G, T")
+        if not text or set(text) - BASES or len(text) > MAX_BASES:
+            _fail(s, f"assay.{key}", _short(text),
+                  f"must be a string of 1 to {MAX_BASES} of A, C, G, T")
     if set(a.key) - BASES or not a.template.startswith(a.key) or not a.key:
-        _fail(s, "assay.key", a.key, f"must be a non-empty prefix of the template {a.template!r}")
+        _fail(s, "assay.key", _short(a.key),
+              f"must be a non-empty prefix of the template {_short(a.template)!r}")
+    _key_flows(s)
+
+
+def _short(text: str) -> str:
+    return text if len(text) <= 40 else f"{text[:37]}…"
+
+
+def _key_flows(s: Scenario) -> None:
+    """The key's flows normalise every flow: they must give a 1-mer and all be dispensed."""
+    from chiptwin.kinetics import pyro
+
+    a = s.assay
+    missing = sorted(set(a.key) - set(a.flow_order))
+    if missing:
+        _fail(s, "assay.flow_order", a.flow_order,
+              f"never dispenses {''.join(missing)}, which the key {a.key!r} needs")
+    n_key = pyro.flows_to_sequence(a.key, a.flow_order)
+    if not (pyro.flow_incorporations(a.key, a.flow_order, n_key - 1)[1] == 1).any():
+        _fail(s, "assay.key", a.key,
+              f"must have a single-base flow before its last flow with flow_order "
+              f"{a.flow_order!r}: its 1-mers are the reference every flow is normalised by")
+    if a.n_flows < n_key:
+        _fail(s, "assay.n_flows", a.n_flows,
+              f"must be ≥ {n_key}, the flows that read the key {a.key!r} with flow_order "
+              f"{a.flow_order!r} (its 1-mers normalise every flow)")
 
 
 def _sites(s: Scenario) -> None:
@@ -105,6 +143,13 @@ def _optics(s: Scenario) -> None:
     if s.sites.footprint_radius_um > s.chip.pitch_um:
         _fail(s, "sites.footprint_radius_um", s.sites.footprint_radius_um,
               f"must not exceed the pixel pitch {s.chip.pitch_um:g} µm")
+    if (s.run.fidelity.optics == "psf" and s.assay.kind != "flux" and o.coupling == "contact"
+            and s.sites.footprint_radius_um > FOOTPRINT_PER_HEIGHT_MAX * s.sites.height_um):
+        _fail(s, "sites.height_um", s.sites.height_um,
+              f"must be ≥ footprint_radius_um / {FOOTPRINT_PER_HEIGHT_MAX:g} = "
+              f"{s.sites.footprint_radius_um / FOOTPRINT_PER_HEIGHT_MAX:g} µm with the psf "
+              "optics: the footprint's quadrature does not converge for a disc that wide so "
+              "close to the diode")
     px = s.chip.pixel
     if max(px.diode_w_um, px.diode_h_um) > s.chip.pitch_um:
         _fail(s, "chip.pitch_um", s.chip.pitch_um,
@@ -125,8 +170,10 @@ def _timing(s: Scenario) -> None:
 
 def _adc_range(s: Scenario) -> None:
     adc, px = s.chip.adc, s.chip.pixel
-    if adc.v_max_V <= adc.v_min_V:
-        _fail(s, "chip.adc.v_max_V", adc.v_max_V, f"must be > v_min_V = {adc.v_min_V:g} V")
+    if adc.v_max_V < adc.v_min_V + ADC_SPAN_MIN_V:
+        _fail(s, "chip.adc.v_max_V", adc.v_max_V,
+              f"must be ≥ v_min_V + 1 mV = {adc.v_min_V + ADC_SPAN_MIN_V:g} V (no ADC has an "
+              "input range below a millivolt)")
     if not adc.v_min_V <= px.pedestal_V < adc.v_max_V:
         _fail(s, "chip.pixel.pedestal_V", px.pedestal_V,
               f"must lie in the ADC range [{adc.v_min_V:g}, {adc.v_max_V:g}) V")

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from chiptwin.config.fields import param
+from chiptwin.constants import MAX_TIME_S, TICK_S
 from chiptwin.dsp.fmt import OVERFLOW_MODES, ROUNDING_MODES
 
 ASSAY_KINDS = ("pyrosequencing", "atp", "luciferase_label", "substrate", "catalyst", "flux")
@@ -29,6 +30,29 @@ ASSAY_KIND_KEYS: dict[str, frozenset[str]] = {
 }
 ASSAY_COMMON_KEYS = frozenset({"kind", "start_s"})
 
+# Ranges shared by several fields. Each is physical, not numerical: what a CMOS sensor, a well or an
+# experiment can be, so that a value outside is a typo or a unit slip, never a design choice.
+# (Combinations that are each in range but too large to run are refused by chiptwin.config.budget.)
+T_MIN, T_MAX = TICK_S, MAX_TIME_S
+TIMES = "one tick (1 ns) … 1e7 s (116 days, longer than any luminescence experiment)"
+RATE_MIN, RATE_MAX = 1e-9, 1e9
+RATES = "1e-9 … 1e9 1/s: a time constant from 30 years to one tick"
+FMOL_MIN, FMOL_MAX = 1e-9, 1e6
+AMOUNTS = ("per site; 1e-9 fmol (0.6 molecule) … 1 nmol (1 µL of 1 mM, a thousand times what "
+           "a 1 nL well holds at 1 mM)")
+AMOL_MIN, AMOL_MAX = FMOL_MIN * 1e3, FMOL_MAX * 1e3
+LENGTH_MIN_UM, LENGTH_MAX_UM = 0.1, 1.0e4
+LENGTHS = "0.1 µm (below the smallest image-sensor pixel, ≈ 0.5 µm) … 1 cm (a whole die)"
+CLOCK_MIN_HZ, CLOCK_MAX_HZ = 1.0, 1.0e10
+CLOCKS = ("1 Hz (far below any real block: a DSP that cannot keep up is modelled so) … 10 GHz, "
+          "above any CMOS counter or DSP clock (0.18 µm: hundreds of MHz)")
+VOLT_MAX = 100.0
+VOLTS = "±100 V: beyond what any CMOS process, high-voltage ones included, withstands; 0.18 µm " \
+        "runs at 1.8–3.3 V"
+TEMP_MIN_C, TEMP_MAX_C = -273.15, 200.0
+TEMPS = ("°C; absolute zero (cryo-CMOS runs at 4 K) … 200 °C, above the 150–175 °C junction "
+         "limit of automotive-grade CMOS")
+
 
 @dataclass(frozen=True)
 class ScenarioMeta:
@@ -44,35 +68,53 @@ class Assay:
     """``[assay]``: the chemistry that makes light (Salama et al. 2004, eqs. 2–19; REFERENCE §1)."""
 
     kind: str = param(choices=ASSAY_KINDS)
-    start_s: float = param(0.0, lo=0.0, doc="s; reagent added / first flow / light on")
+    start_s: float = param(0.0, lo=0.0, hi=T_MAX,
+                           doc="s; reagent added / first flow / light on; 0 or " + TIMES)
     quantum_yield: float = param(
         0.88, lo=0.0, hi=1.0, lo_open=True,
         doc="photons per luciferase turnover; 0.88 Seliger & McElroy (paper), 0.41 Ando 2008",
     )
     # pyrosequencing (eqs. 18–19)
-    dna_fmol: float = param(1.0, lo=0.0, lo_open=True, doc="fmol of template DNA per site")
+    dna_fmol: float = param(1.0, lo=FMOL_MIN, hi=FMOL_MAX,
+                            doc="fmol of template DNA " + AMOUNTS)
     template: str = param("", kind=str, doc="bases A C G T, read 5'→3' from the primer")
     key: str = param("TCAG", kind=str, doc="known prefix of the template; its 1-mers normalise")
     flow_order: str = param("TACG", kind=str, doc="nucleotide dispensation cycle")
-    n_flows: int = param(16, kind=int, lo=1, hi=10_000)
-    flow_period_s: float = param(60.0, lo=0.0, lo_open=True, doc="s between dispensations")
-    k_t_per_s: float = param(1.0, lo=0.0, lo_open=True, doc="1/s luciferase turnover (eq. 18)")
-    k_a_per_s: float = param(0.05, lo=0.0, lo_open=True, doc="1/s apyrase removal (eq. 18)")
+    n_flows: int = param(16, kind=int, lo=1, hi=10_000,
+                         doc="dispensations; 454 runs ≈ 800 flows")
+    flow_period_s: float = param(60.0, lo=T_MIN, hi=T_MAX,
+                                 doc="s between dispensations; " + TIMES)
+    k_t_per_s: float = param(1.0, lo=RATE_MIN, hi=RATE_MAX,
+                             doc="1/s luciferase turnover (eq. 18; paper 1); " + RATES)
+    k_a_per_s: float = param(0.05, lo=RATE_MIN, hi=RATE_MAX,
+                             doc="1/s apyrase removal (eq. 18; paper 0.05); " + RATES)
     photons_per_incorporation: float = param(
-        0.0, lo=0.0, doc="measured yield; 0 = derive α·k_t/k_a = 17.6 (eq. 19); Ronaghi ≈ 0.01"
+        0.0, lo=0.0, hi=1.0e6,
+        doc="measured yield; 0 = derive α·k_t/k_a = 17.6 (eq. 19); Ronaghi ≈ 0.01; ≤ 1e6, "
+            "five orders above eq. 19"
     )
     # ATP assay (eq. 12) and luciferase label (eq. 13)
-    atp_fmol: float = param(1.0, lo=0.0, lo_open=True, doc="fmol ATP per site, V·[ATP0]")
-    luciferase_amol: float = param(1.0, lo=0.0, lo_open=True, doc="amol luciferase per site")
-    turnover_per_s: float = param(0.1, lo=0.0, lo_open=True, doc="1/s; 0.1 glow … 1 flash")
+    atp_fmol: float = param(1.0, lo=FMOL_MIN, hi=FMOL_MAX,
+                            doc="fmol ATP, V·[ATP0], " + AMOUNTS)
+    luciferase_amol: float = param(1.0, lo=AMOL_MIN, hi=AMOL_MAX,
+                                   doc="amol luciferase " + AMOUNTS)
+    turnover_per_s: float = param(0.1, lo=RATE_MIN, hi=RATE_MAX,
+                                  doc="1/s; 0.1 glow … 1 flash; " + RATES)
     # substrate detection (eqs. 5–6) and catalyst detection (eqs. 7–8), mass action (eq. 2)
-    substrate_amol: float = param(1.0, lo=0.0, lo_open=True, doc="amol substrate per site V·[S0]")
-    enzyme_amol: float = param(1.0, lo=0.0, lo_open=True, doc="amol enzyme per site V·[E]")
-    k_f_per_M_per_s: float = param(1.0e5, lo=0.0, lo_open=True, doc="1/(M·s), forward rate")
-    enzyme_M: float = param(1.0e-6, lo=0.0, lo_open=True, doc="M; enzyme in excess")
-    substrate_max_M: float = param(1.0e-6, lo=0.0, lo_open=True, doc="M; substrate in excess")
+    substrate_amol: float = param(1.0, lo=AMOL_MIN, hi=AMOL_MAX,
+                                  doc="amol substrate V·[S0] " + AMOUNTS)
+    enzyme_amol: float = param(1.0, lo=AMOL_MIN, hi=AMOL_MAX, doc="amol enzyme V·[E] " + AMOUNTS)
+    k_f_per_M_per_s: float = param(
+        1.0e5, lo=1e-9, hi=1e10,
+        doc="1/(M·s), forward rate; ≤ 1e10, the diffusion limit (Smoluchowski, ≈ 1e9–1e10)")
+    enzyme_M: float = param(1.0e-6, lo=1e-18, hi=1.0,
+                            doc="M; enzyme in excess; 1 aM … 1 M (proteins dissolve to mM)")
+    substrate_max_M: float = param(1.0e-6, lo=1e-18, hi=1.0,
+                                   doc="M; substrate in excess; 1 aM … 1 M")
     # flux: light given directly at the sensor plane
-    photons_per_s_per_um2: float = param(0.5, lo=0.0, doc="photons/s/µm² on the diode")
+    photons_per_s_per_um2: float = param(
+        0.5, lo=0.0, hi=1.0e12,
+        doc="photons/s/µm² on the diode; ≤ 1e12, above direct sunlight (≈ 3e9 at 560 nm)")
 
 
 @dataclass(frozen=True)
@@ -82,8 +124,10 @@ class Sites:
     at_pixels: list = param(
         "all", kind=(str, list), doc='"all", "centre", or a list of [row, col] pixel indices'
     )
-    footprint_radius_um: float = param(0.0, lo=0.0, doc="µm; disc footprint of a site, 0 = point")
-    height_um: float = param(15.0, lo=0.0, lo_open=True, doc="µm above the diode (paper: 15 µm)")
+    footprint_radius_um: float = param(
+        0.0, lo=0.0, hi=LENGTH_MAX_UM, doc="µm; disc footprint of a site, 0 = point; ≤ the pitch")
+    height_um: float = param(15.0, lo=LENGTH_MIN_UM, hi=LENGTH_MAX_UM,
+                             doc="µm above the diode (paper: 15 µm); " + LENGTHS)
 
 
 @dataclass(frozen=True)
@@ -94,31 +138,48 @@ class Optics:
     convention: str = param("lambertian_na2", choices=("lambertian_na2", "isotropic"))
     transmission: float = param(1.0, lo=0.0, hi=1.0, lo_open=True, doc="extra optical loss")
     aperture_diameter_um: float = param(
-        0.0, lo=0.0, doc="µm; lens aperture D (lens coupling only)"
+        0.0, lo=0.0, hi=1.0e6, doc="µm; lens aperture D (lens coupling only); ≤ 1 m"
     )
-    object_distance_um: float = param(0.0, lo=0.0, doc="µm; sample-to-lens U (lens only)")
+    object_distance_um: float = param(
+        0.0, lo=0.0, hi=1.0e7, doc="µm; sample-to-lens U (lens only); ≤ 10 m")
 
 
 @dataclass(frozen=True)
 class Pixel:
     """``[chip.pixel]``: photodiode and readout (REFERENCE §3–4; most defaults are choices)."""
 
-    diode_w_um: float = param(100.0, lo=0.0, lo_open=True, doc="µm; paper's 100 µm diode")
-    diode_h_um: float = param(100.0, lo=0.0, lo_open=True, doc="µm; paper's 100 µm diode")
+    diode_w_um: float = param(100.0, lo=LENGTH_MIN_UM, hi=LENGTH_MAX_UM,
+                              doc="µm; paper's 100 µm diode; " + LENGTHS)
+    diode_h_um: float = param(100.0, lo=LENGTH_MIN_UM, hi=LENGTH_MAX_UM,
+                              doc="µm; paper's 100 µm diode; " + LENGTHS)
     qe: float = param(0.4, lo=0.0, hi=1.0, lo_open=True, doc="at 560 nm; REFERENCE §4: 0.3–0.6")
     dark_current_nA_per_cm2: float = param(
-        0.05, lo=0.0, doc="at ref_temp_C; low-dark-current diodes: tens of pA/cm² (choice)"
+        0.05, lo=0.0, hi=1.0e4,
+        doc="at ref_temp_C; low-dark-current diodes: tens of pA/cm² (choice); ≤ 10 µA/cm², a "
+            "thousand times a plain n-well's 0.1–10 nA/cm² (REFERENCE §4)"
     )
-    ref_temp_C: float = param(25.0, lo=-273.15)
-    temperature_C: float = param(25.0, lo=-273.15, doc="°C; room temperature")
-    dark_doubling_C: float = param(7.0, lo=0.0, lo_open=True, doc="°C per doubling (5–8)")
-    capacitance_fF: float = param(1000.0, lo=0.0, lo_open=True, doc="fF; ≈1 pF for 100 µm n-well")
-    read_noise_e: float = param(100.0, lo=0.0, doc="e⁻ rms per sample (choice)")
-    full_well_e: float = param(6.0e6, lo=0.0, lo_open=True, doc="e⁻; ≈1 V swing at 1 pF")
+    ref_temp_C: float = param(25.0, lo=TEMP_MIN_C, hi=TEMP_MAX_C, doc=TEMPS)
+    temperature_C: float = param(25.0, lo=TEMP_MIN_C, hi=TEMP_MAX_C,
+                                 doc="room temperature by default; " + TEMPS)
+    dark_doubling_C: float = param(
+        7.0, lo=1.0, hi=50.0,
+        doc="°C per doubling; 5–8 measured (REFERENCE §4); 1 … 50 covers any silicon diode")
+    capacitance_fF: float = param(
+        1000.0, lo=0.1, hi=1.0e7,
+        doc="fF; ≈1 pF for 100 µm n-well; 0.1 fF (below the ≈1 fF node of the smallest pixels) "
+            "… 10 nF (a 1 cm² n-well diode at ≈0.1 fF/µm²)")
+    read_noise_e: float = param(
+        100.0, lo=0.0, hi=1.0e6,
+        doc="e⁻ rms per sample (choice); ≤ 1e6, above the kTC noise of the largest diode (10 nF: "
+            "4e4 e⁻)")
+    full_well_e: float = param(
+        6.0e6, lo=1.0, hi=1.0e12,
+        doc="e⁻; ≈1 V swing at 1 pF; ≤ 1e12 (10 nF over 10 V holds 6e11)")
     prnu_frac: float = param(0.01, lo=0.0, hi=0.5, doc="gain non-uniformity, rms fraction")
     dsnu_frac: float = param(0.1, lo=0.0, hi=2.0, doc="dark non-uniformity, rms fraction")
     true_cds: bool = param(True, kind=bool, doc="reset sampled right after reset: kTC cancels")
-    pedestal_V: float = param(0.02, lo=0.0, doc="V; output at zero charge, keeps noise in range")
+    pedestal_V: float = param(0.02, lo=0.0, hi=VOLT_MAX,
+                              doc="V; output at zero charge, keeps noise in range; " + VOLTS)
 
 
 @dataclass(frozen=True)
@@ -126,12 +187,16 @@ class Adc:
     """``[chip.adc]``: the per-pixel ADC (JSSC 2006: 13 bits, one channel per pixel)."""
 
     bits: int = param(13, kind=int, lo=1, hi=24, doc="JSSC 2006: 13")
-    v_min_V: float = param(0.0)
-    v_max_V: float = param(1.0)
-    offset_error_lsb: float = param(0.0)
+    v_min_V: float = param(0.0, lo=-VOLT_MAX, hi=VOLT_MAX, doc="V; " + VOLTS)
+    v_max_V: float = param(1.0, lo=-VOLT_MAX, hi=VOLT_MAX, doc="V; " + VOLTS)
+    offset_error_lsb: float = param(0.0, lo=-2.0**24, hi=2.0**24,
+                                    doc="LSB; at most the widest ADC's scale (24 bits)")
     gain_error: float = param(0.0, lo=-0.5, hi=0.5, doc="fractional")
-    clock_hz: float = param(20e6, lo=0.0, lo_open=True, doc="Hz; single-slope counter clock")
-    cycles_per_conversion: int = param(0, kind=int, lo=0, doc="0 = 2^bits (single slope)")
+    clock_hz: float = param(20e6, lo=CLOCK_MIN_HZ, hi=CLOCK_MAX_HZ,
+                            doc="Hz; single-slope counter clock; " + CLOCKS)
+    cycles_per_conversion: int = param(
+        0, kind=int, lo=0, hi=2**32,
+        doc="0 = 2^bits (single slope); ≤ 2^32, 256 times a 24-bit ramp")
     range_below_full_well_ok: bool = param(
         False, kind=bool, doc="true when the ADC range is meant to clip before the full well"
     )
@@ -148,7 +213,9 @@ class Memory:
     """``[chip.memory]``: on-chip frame memory; capacity in bits (word × pixels × frames)."""
 
     word_bits: int = param(16, kind=int, lo=1, hi=64)
-    capacity_bits: int = param(1_048_576, kind=int, lo=1, doc="bits; 128 KiB (choice)")
+    capacity_bits: int = param(
+        1_048_576, kind=int, lo=1, hi=2**40,
+        doc="bits; 128 KiB (choice); ≤ 2^40 (128 GiB), beyond any on-chip memory")
 
 
 @dataclass(frozen=True)
@@ -159,8 +226,11 @@ class Dsp:
     n_dark_frames: int = param(16, kind=int, lo=1, hi=65536, doc="frames in the dark ref")
     cms_samples: int = param(4, kind=int, lo=1, hi=256, doc="M reset + M signal samples")
     average_frames: int = param(4, kind=int, lo=1, hi=65536, doc="N frames per output")
-    clock_hz: float = param(50e6, lo=0.0, lo_open=True, doc="Hz (choice)")
-    cycles_per_sample: float = param(2.0, lo=0.0, lo_open=True, doc="DSP cycles per stored word")
+    clock_hz: float = param(50e6, lo=CLOCK_MIN_HZ, hi=CLOCK_MAX_HZ,
+                            doc="Hz (choice); " + CLOCKS)
+    cycles_per_sample: float = param(
+        2.0, lo=1e-3, hi=1e6,
+        doc="DSP cycles per stored word; 1e-3 (a 1000-lane SIMD) … 1e6 (a slow soft core)")
     # fixed point (mode "fixed"): formats derive from the ADC bits and M, K, N (chiptwin.dsp.chain)
     rounding: str = param("RND_CONV", choices=ROUNDING_MODES, doc="every output register")
     overflow: str = param("SAT", choices=OVERFLOW_MODES, doc="every output register")
@@ -173,18 +243,20 @@ class Dsp:
 class Timing:
     """``[chip.timing]``: the frame schedule."""
 
-    frame_period_s: float = param(1.0, lo=0.0, lo_open=True)
-    t_int_s: float = param(0.99, lo=0.0, lo_open=True, doc="s of integration per frame")
-    t_reset_s: float = param(1e-5, lo=0.0, lo_open=True)
+    frame_period_s: float = param(1.0, lo=T_MIN, hi=T_MAX, doc="s; " + TIMES)
+    t_int_s: float = param(0.99, lo=T_MIN, hi=T_MAX,
+                           doc="s of integration per frame; " + TIMES)
+    t_reset_s: float = param(1e-5, lo=T_MIN, hi=T_MAX, doc="s; " + TIMES)
 
 
 @dataclass(frozen=True)
 class Chip:
     """``[chip]``: the array and its blocks (JSSC 2006: 8 × 16 pixels)."""
 
-    rows: int = param(8, kind=int, lo=1, hi=4096)
-    cols: int = param(16, kind=int, lo=1, hi=4096)
-    pitch_um: float = param(125.0, lo=0.0, lo_open=True, doc="µm (choice: diode + 25 µm)")
+    rows: int = param(8, kind=int, lo=1, hi=4096, doc="JSSC 2006: 8; ≤ 4096 (a 16 Mpixel array)")
+    cols: int = param(16, kind=int, lo=1, hi=4096, doc="JSSC 2006: 16; ≤ 4096")
+    pitch_um: float = param(125.0, lo=LENGTH_MIN_UM, hi=LENGTH_MAX_UM,
+                            doc="µm (choice: diode + 25 µm); " + LENGTHS)
     fixed_pattern_seed: int = param(
         -1, kind=int, lo=-1, hi=2**63 - 1,
         doc="seed of this chip's PRNU/DSNU maps; -1 = from scenario.seed (one chip per seed)")
@@ -229,14 +301,18 @@ class Fidelity:
 class Run:
     """``[run]``: how long to run and at which fidelity."""
 
-    duration_s: float = param(lo=0.0, lo_open=True, doc="s of chip time")
+    duration_s: float = param(lo=T_MIN, hi=T_MAX, doc="s of chip time; " + TIMES)
     detection_snr_power: float = param(
-        10.0, lo=0.0, lo_open=True, doc="power SNR (eq. 22) above which a site is detected"
+        10.0, lo=1e-6, hi=1e12,
+        doc="power SNR (eq. 22) above which a site is detected; 1e-6 (−60 dB) … 1e12 (120 dB, "
+            "beyond any sensor's dynamic range)"
     )
     light_estimator: str = param(
         "sum", choices=("sum", "matched"),
         doc="window total: plain sum of DSP outputs, or the matched filter for the assay's "
             "exponential decay (pyrosequencing k_a, ATP turnover)")
+    save_frames: bool = param(
+        False, kind=bool, doc="stream every frame as read to frames.npy in the output folder")
     fidelity: Fidelity = field(default_factory=Fidelity)
 
 
