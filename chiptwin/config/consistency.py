@@ -31,8 +31,8 @@ BUILT_LEVELS: dict[str, tuple[str, ...]] = {
 
 def check_consistency(s: Scenario) -> None:
     """Run every cross-field rule on a built scenario."""
-    for rule in (_name, _fidelity, _assay, _sites, _optics, _timing, _adc_range, _memory,
-                 _duration, check_budget):
+    for rule in (_name, _fidelity, _assay, _cascade, _sites, _optics, _timing, _adc_range,
+                 _memory, _duration, _matched_filter, check_budget):
         rule(s)
 
 
@@ -88,6 +88,39 @@ def _assay(s: Scenario) -> None:
         _fail(s, "assay.key", _short(a.key),
               f"must be a non-empty prefix of the template {_short(a.template)!r}")
     _key_flows(s)
+
+
+#: Rates the cascade level takes: its enzyme amounts are sized from k_t and k_a
+#: (CascadeParams.from_closed_form) and its solver was run at every corner of this box. Unit: 1/s.
+CASCADE_RATES = (1e-3, 1e3)
+#: Measured yields the cascade is fitted to, and how far from eq. 19's α·k_t/k_a: its luciferase
+#: is searched within a factor 1e4 (kinetics.fit_photon_yield), which fails near 1e-4 and 1e4.
+CASCADE_YIELD_MAX = 100.0
+CASCADE_FIT = (1e-3, 5e3)
+
+
+def _cascade(s: Scenario) -> None:
+    a = s.assay
+    if s.run.fidelity.kinetics != "cascade" or a.kind != "pyrosequencing":
+        return
+    lo, hi = CASCADE_RATES
+    for key in ("k_t_per_s", "k_a_per_s"):
+        if not lo <= getattr(a, key) <= hi:
+            _fail(s, f"assay.{key}", getattr(a, key),
+                  f"must be in [{lo:g}, {hi:g}] 1/s with run.fidelity.kinetics = \"cascade\" "
+                  "(its enzymes are sized from k_t and k_a and its solver is checked over that "
+                  "range; closed_form takes the whole range)")
+    y = a.photons_per_incorporation
+    if not y:
+        return
+    eq19 = a.quantum_yield * a.k_t_per_s / a.k_a_per_s
+    y_lo, y_hi = eq19 / CASCADE_FIT[1], min(eq19 / CASCADE_FIT[0], CASCADE_YIELD_MAX)
+    if not y_lo <= y <= y_hi:
+        _fail(s, "assay.photons_per_incorporation", y,
+              f"must be in [{y_lo:.3g}, {y_hi:.3g}] with run.fidelity.kinetics = \"cascade\": "
+              f"its luciferase is fitted to this yield from eq. 19's α·k_t/k_a = {eq19:.3g}, "
+              f"and the fit reaches {1 / CASCADE_FIT[1]:g} … {1 / CASCADE_FIT[0]:g} times that "
+              f"(at most {CASCADE_YIELD_MAX:g})")
 
 
 def _short(text: str) -> str:
@@ -234,6 +267,27 @@ def _duration(s: Scenario) -> None:
                   f"({block / 1e9:g} s each), so that averaged frames do not straddle flows")
     if s.run.duration_s < need:
         _fail(s, "run.duration_s", s.run.duration_s, f"must be ≥ {need:g} s for this assay")
+
+
+#: Fastest decay the matched filter is given, per output block (e-folds in N frame periods).
+MATCHED_EFOLDS_PER_BLOCK_MAX = 50.0
+
+
+def _matched_filter(s: Scenario) -> None:
+    """The matched filter weights each output block by exp(−k·t) at its middle: light that decays
+    by more than e^50 within one block leaves it nothing to weight (the weights underflow and the
+    window total comes out 0 ± 0)."""
+    keys = {"pyrosequencing": "k_a_per_s", "atp": "turnover_per_s"}
+    if s.run.light_estimator != "matched" or s.assay.kind not in keys:
+        return
+    key = keys[s.assay.kind]
+    k = getattr(s.assay, key)
+    block_s = s.chip.dsp.average_frames * s.chip.timing.frame_period_s
+    if k * block_s > MATCHED_EFOLDS_PER_BLOCK_MAX:
+        _fail(s, f"assay.{key}", k,
+              f"decays by e^{k * block_s:.3g} within one output block ({block_s:g} s) with "
+              f"run.light_estimator = \"matched\": the filter needs light that lasts; it must "
+              f"be ≤ {MATCHED_EFOLDS_PER_BLOCK_MAX / block_s:.3g} 1/s, or the estimator \"sum\"")
 
 
 def scenario_warnings(s: Scenario) -> list[str]:

@@ -215,6 +215,8 @@ FOUND = [
     ("ccd_100fmol", "assay.n_flows", "1"),  # fewer flows than the key: IndexError
     ("pyro_1fmol", "assay.k_a_per_s", "1e300"),
     ("pyro_1fmol", "chip.pixel.diode_h_um", "1e-300"),
+    # the matched filter's weights underflow: 0 ± 0, SNR inf, the report's histogram fails
+    ("pyro_array_256", "assay.k_a_per_s", "1e9"),
 ]
 
 
@@ -228,6 +230,34 @@ def test_issue_crash_is_refused_naming_the_key(tmp_path, capsys, scenario, key, 
     assert main(["run", *argv, "--out", str(out), "--quiet"]) == 2
     assert capsys.readouterr().err == err
     assert err.count("\n") == 1 and "Traceback" not in err and key in err, err
+    assert not out.exists()
+
+
+#: Two keys together, found beside the one-key sweep (internal errors before the fix).
+COMBINED = [
+    # the cascade's solver and its yield fit fail outside the range they were sized for
+    ("pyro_1fmol", ['run.fidelity.kinetics="cascade"', "assay.k_a_per_s=1e9"], "assay.k_a_per_s"),
+    ("pyro_1fmol", ['run.fidelity.kinetics="cascade"', "assay.k_t_per_s=100"],
+     "assay.photons_per_incorporation"),
+    ("pyro_1fmol", ['run.fidelity.kinetics="cascade"', "assay.photons_per_incorporation=1e3"],
+     "assay.photons_per_incorporation"),
+    # the matched filter's weights underflow (0 ± 0 and SNR inf, "detected")
+    ("pyro_1fmol", ['run.light_estimator="matched"', "assay.k_a_per_s=1e9"], "assay.k_a_per_s"),
+    ("atp_glow", ['run.light_estimator="matched"', "assay.turnover_per_s=1e9"],
+     "assay.turnover_per_s"),
+]
+
+
+@pytest.mark.parametrize(("scenario", "sets", "key"), COMBINED,
+                         ids=[f"{s}:{'+'.join(v)}" for s, v, _ in COMBINED])
+def test_combined_crash_is_refused_naming_the_key(tmp_path, capsys, scenario, sets, key):
+    out = tmp_path / "out"
+    argv = ["run", scenario, "--out", str(out), "--quiet"]
+    for text in sets:
+        argv += ["--set", text]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and key in err, err
     assert not out.exists()
 
 
