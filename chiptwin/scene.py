@@ -18,6 +18,7 @@ import numpy as np
 from chiptwin import pixel, stages
 from chiptwin.chip import ChipRun, Schedule
 from chiptwin.dsp.pipeline import Pipeline
+from chiptwin.limits import frames_per_block
 
 
 def stage_rng(seed: int, stage: str) -> np.random.Generator:
@@ -71,14 +72,6 @@ class PixelFrames:
 #: frames at a time as the chip model reaches them and then dropped, so memory stays flat in frames.
 MOMENTS_KEPT_BYTES: int = 48 << 20
 
-#: ADC samples per block of frames (reset and signal, all pixels): the frames whose light,
-#: moments and codes are made together, and so the unit of what is held at once (8 MiB of codes).
-BLOCK_SAMPLES: int = 1 << 20
-
-
-def frames_per_block(n_pixels: int, cms_samples: int) -> int:
-    """Frames in one block of :data:`BLOCK_SAMPLES` samples (at least 1)."""
-    return max(1, BLOCK_SAMPLES // max(2 * cms_samples * n_pixels, 1))
 
 
 @dataclass(frozen=True)
@@ -105,7 +98,7 @@ class Scene:
 
     @property
     def block_frames(self) -> int:
-        """Frames per block (:func:`frames_per_block`)."""
+        """Frames per block (:func:`chiptwin.limits.frames_per_block`)."""
         return frames_per_block(self.n_pixels, self.sensor.cms_samples)
 
     def photons_block(self, start: int, stop: int) -> np.ndarray:

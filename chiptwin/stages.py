@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import sparse
 
-from chiptwin import kinetics, optics, photons, pixel
+from chiptwin import kinetics, limits, optics, photons, pixel
 from chiptwin.config import Scenario
 from chiptwin.kinetics import pyro
 from chiptwin.kinetics.light_source import LightSource
@@ -94,31 +94,15 @@ def _cascade_source(s: Scenario, n: int) -> LightSource:
                                            params)
 
 
-#: Largest coupling held as a dense (n_pixels, n_sites) array, in entries (128 MiB of float64).
-#: A larger one (thousands of sites on a large array) is a ``scipy.sparse`` CSR matrix.
-DENSE_COUPLING_ENTRIES: int = 1 << 24
-
-#: Largest array whose coupling is integrated over every pixel for every site (the dense path).
-#: Above 64 × 64 pixels it is the shifted kernel (:func:`_sparse_coupling`): integrating the psf
-#: over all 128 × 128 pixels took 236 MB of temporaries and 0.4 s for two sites, more than the
-#: whole chip model then holds.
-DENSE_COUPLING_PIXELS: int = 64 * 64
-
-#: The sparse coupling's one approximation: a pixel whose share of a site's light is below this
-#: fraction of the site's own pixel's share is left out (contact optics, 125 µm pixels, 15 µm:
-#: from the 8th pixel out, ≈ 1e-6 of the light; the dense matrix keeps every pixel).
-COUPLING_DROP_RTOL: float = 1e-6
-
-
 def coupling(s: Scenario) -> np.ndarray | sparse.csr_matrix:
     """(n_pixels, n_sites): the share of each site's emitted photons on each pixel's diode.
 
-    Dense up to :data:`DENSE_COUPLING_ENTRIES` entries and :data:`DENSE_COUPLING_PIXELS`
-    pixels; above either, sparse (:func:`_sparse_coupling`).
+    Dense up to :data:`chiptwin.limits.DENSE_COUPLING_ENTRIES` entries and
+    :data:`~chiptwin.limits.DENSE_COUPLING_PIXELS` pixels; above either, sparse
+    (:func:`_sparse_coupling`).
     """
     rc = site_pixels(s)
-    if (s.chip.n_pixels * len(rc) > DENSE_COUPLING_ENTRIES
-            or s.chip.n_pixels > DENSE_COUPLING_PIXELS):
+    if not limits.coupling_is_dense(s.chip.n_pixels, len(rc)):
         return _sparse_coupling(s, rc)
     chip, o = s.chip, s.optics
     under = np.zeros((chip.n_pixels, len(rc)))
@@ -157,8 +141,9 @@ def _sparse_coupling(s: Scenario, rc: np.ndarray) -> sparse.csr_matrix:
     Every site sits at its pixel's centre at the same height with the same footprint, and a
     pixel's share depends only on where it is relative to the site, so one kernel, computed on
     a (2R + 1)² grid around a site, serves all (clipped at the array's edges, as the dense
-    matrix is). R grows until the kernel's outer ring is below :data:`COUPLING_DROP_RTOL` of its
-    centre (at most the array's size); the ring itself is then left out.
+    matrix is). R grows until the kernel's outer ring is below
+    :data:`~chiptwin.limits.COUPLING_DROP_RTOL` of its centre (at most the array's size); the ring
+    itself is then left out.
     """
     chip = s.chip
     if s.assay.kind == "flux" or s.optics.coupling == "lens":
@@ -171,11 +156,11 @@ def _sparse_coupling(s: Scenario, rc: np.ndarray) -> sparse.csr_matrix:
             k = _optics_grid(s, np.arange(n), np.arange(n), np.array([[radius, radius]]))
             kernel = k.reshape(n, n) * s.optics.transmission
             ring = np.max(np.concatenate([kernel[0], kernel[-1], kernel[:, 0], kernel[:, -1]]))
-            if ring < COUPLING_DROP_RTOL * kernel[radius, radius] or n > max(chip.rows,
+            if ring < limits.COUPLING_DROP_RTOL * kernel[radius, radius] or n > max(chip.rows,
                                                                              chip.cols):
                 break
             radius *= 2
-    dr, dc = np.nonzero(kernel >= COUPLING_DROP_RTOL * kernel[radius, radius])
+    dr, dc = np.nonzero(kernel >= limits.COUPLING_DROP_RTOL * kernel[radius, radius])
     values = kernel[dr, dc]
     r = rc[:, :1] + (dr - radius)[None, :]
     c = rc[:, 1:] + (dc - radius)[None, :]

@@ -26,11 +26,15 @@ import math
 import os
 from dataclasses import dataclass
 
-import numpy as np
-
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
 from chiptwin.constants import MAX_TIME_S, N_A, Q_E, s_to_ticks
+from chiptwin.limits import (
+    COUPLING_DROP_RTOL,
+    POISSON_LAM_MAX,
+    coupling_is_dense,
+    frames_per_block,
+)
 
 #: Default memory budget of one run. Unit: GiB.
 MEMORY_BUDGET_GIB: float = 8.0
@@ -38,9 +42,6 @@ MEMORY_BUDGET_GIB: float = 8.0
 #: Environment variable that replaces :data:`MEMORY_BUDGET_GIB` (a positive number of GiB).
 MEMORY_BUDGET_ENV: str = "CHIPTWIN_MEMORY_BUDGET_GIB"
 
-#: Largest mean NumPy's Poisson sampler takes (``POISSON_LAM_MAX`` in ``numpy/random``; the same
-#: as :data:`chiptwin.pixel.frames.POISSON_LAM_MAX`, which the pixel stage checks). Unit: e⁻.
-POISSON_LAM_MAX: float = float(np.iinfo(np.int64).max - np.sqrt(np.iinfo(np.int64).max) * 10)
 
 # Bytes per unit of a run, measured on chiptwin run (peak RSS, 2-core machine) and rounded up.
 #: The interpreter with numpy, numba, simpy and matplotlib loaded (260 MB RSS for pyro_1fmol).
@@ -64,9 +65,6 @@ HELD_PIXEL_FRAME_BYTES: int = 32
 DENSE_COUPLING_BYTES: int = 104
 #: Per entry of a sparse coupling (its COO triplets, the mask and the CSR matrix).
 SPARSE_COUPLING_BYTES: int = 64
-#: Mirrors :data:`chiptwin.stages.DENSE_COUPLING_ENTRIES` and ``COUPLING_DROP_RTOL``.
-DENSE_COUPLING_ENTRIES: int = 1 << 24
-COUPLING_DROP_RTOL: float = 1e-6
 #: Safety factor on the whole estimate.
 MARGIN: float = 1.25
 
@@ -245,7 +243,7 @@ def frames_held(s: Scenario, n_frames: int) -> int:
     memory holds (a DSP that keeps up frees a block as the next arrives; one that cannot lets the
     memory fill)."""
     c = s.chip
-    block = max(1, (1 << 20) // (c.samples_per_frame * c.n_pixels))  # chiptwin.scene.BLOCK_SAMPLES
+    block = frames_per_block(c.n_pixels, c.dsp.cms_samples)
     memory = max(0, (c.memory.capacity_bits - c.memory.word_bits * c.n_pixels) // c.frame_bits)
     dsp_s = c.n_pixels * c.samples_per_frame * c.dsp.cycles_per_sample / c.dsp.clock_hz
     if dsp_s <= c.timing.frame_period_s:
@@ -304,7 +302,7 @@ def memory_estimate(s: Scenario) -> list[MemoryTerm]:
     terms.append(MemoryTerm(f"the DSP's largest job, {job} frames × {pixels} pixels × {stacked} B "
                             "(codes stacked for CMS)", job * pixels * stacked,
                             f"chip.dsp.n_dark_frames, {size}, chip.dsp.cms_samples"))
-    if pixels * sites <= DENSE_COUPLING_ENTRIES:
+    if coupling_is_dense(pixels, sites):
         terms.append(MemoryTerm(f"coupling {pixels} pixels × {sites} sites × "
                                 f"{DENSE_COUPLING_BYTES} B", pixels * sites * DENSE_COUPLING_BYTES,
                                 f"{size}, sites.at_pixels"))

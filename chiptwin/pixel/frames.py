@@ -24,14 +24,11 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from chiptwin.limits import POISSON_LAM_MAX
 from chiptwin.pixel import _kernels
 from chiptwin.pixel._checks import check_array
 from chiptwin.pixel.chain import _readout_consts
 from chiptwin.pixel.sensor import _check_readout
-
-#: Largest mean NumPy's Poisson sampler accepts (``numpy.random`` ``POISSON_LAM_MAX``). Unit: e⁻.
-POISSON_LAM_MAX: float = float(np.iinfo(np.int64).max - np.sqrt(np.iinfo(np.int64).max) * 10)
-
 
 #: Pixels per random stream at the ``binned`` level: the unit of parallel work. A fixed number
 #: (never derived from the thread count), so the streams, and the numbers, depend on the seed only.

@@ -10,8 +10,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from chiptwin import limits, stages
 from chiptwin import scene as scene_module
-from chiptwin import stages
 from chiptwin.config import load_scenario
 from chiptwin.pixel import CHUNK_PIXELS
 from chiptwin.pixel import frames as frames_module
@@ -121,17 +121,17 @@ def test_sparse_coupling_is_the_dense_one_within_its_tolerance(small_toml, monke
     s = load_scenario(small_toml, ["chip.rows=24", "chip.cols=24",
                                    f"sites.at_pixels={sites!r}".replace("'", "")])
     dense = stages.coupling(s)
-    monkeypatch.setattr(stages, "DENSE_COUPLING_ENTRIES", 0)
+    monkeypatch.setattr(limits, "DENSE_COUPLING_ENTRIES", 0)
     sp = stages.coupling(s)
-    monkeypatch.setattr(stages, "DENSE_COUPLING_ENTRIES", 1 << 24)
-    monkeypatch.setattr(stages, "DENSE_COUPLING_PIXELS", 0)
+    monkeypatch.setattr(limits, "DENSE_COUPLING_ENTRIES", 1 << 24)
+    monkeypatch.setattr(limits, "DENSE_COUPLING_PIXELS", 0)
     assert (stages.coupling(s) != sp).nnz == 0
     assert sp.shape == dense.shape and sp.nnz < dense.size
     got = sp.toarray()
     kept = got > 0
     np.testing.assert_allclose(got[kept], dense[kept], rtol=1e-9, atol=0)
     own = dense[stages.site_pixel_indices(s), np.arange(len(sites))]
-    assert np.all(dense[~kept] <= stages.COUPLING_DROP_RTOL * own[np.nonzero(~kept)[1]] * 1.0001)
+    assert np.all(dense[~kept] <= limits.COUPLING_DROP_RTOL * own[np.nonzero(~kept)[1]] * 1.0001)
 
 
 def test_an_array_of_sites_gets_its_figures_map_and_histogram(small_toml, tmp_path):

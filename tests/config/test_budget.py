@@ -8,7 +8,7 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from chiptwin import stages
+from chiptwin import limits, stages
 from chiptwin.cli import main
 from chiptwin.config import budget as B
 from chiptwin.config import load_scenario
@@ -139,7 +139,7 @@ def test_sparse_kernel_radius_is_at_least_the_stage_s():
     """The estimate's kernel is no smaller than the one ``stages._sparse_coupling`` keeps."""
     s = load_scenario(SCENARIOS / "pyro_array_256.toml")
     c = stages.coupling(s)
-    assert c.shape[0] * c.shape[1] > B.DENSE_COUPLING_ENTRIES
+    assert c.shape[0] * c.shape[1] > limits.DENSE_COUPLING_ENTRIES
     per_site = np.diff(c.tocsc().indptr).max()
     side = 2 * B._kernel_radius(s) + 1
     assert per_site <= side * side
