@@ -250,9 +250,9 @@ def _is_study(name: str) -> bool:
 def _validate_study(path: Path) -> int:
     """Every point checked, as ``chiptwin study`` does before its first run."""
     from chiptwin.study import load_study
-    from chiptwin.study.engine import plan_study
+    from chiptwin.study.engine import Plan
 
-    plan = plan_study(load_study(path, resolve_scenario))
+    plan = Plan(load_study(path, resolve_scenario))
     n, bad = len(plan.points), len(plan.invalid)
     print(f"{path}: ok ({plan.study.name}: {n} points × {plan.study.replicates} replicates, "
           f"{len(plan.references)} reference point(s), search {plan.study.search})")

@@ -90,13 +90,9 @@ def run_study(study: Study | str | Path, workers: int | None = None,
     return StudyResult(study, table, summary["answer"], summary)
 
 
-def plan_study(study: Study) -> Plan:
-    """Every point of ``study`` validated (an inconsistent one is kept as invalid)."""
-    return Plan(study)
-
-
 class Plan:
-    """The study's points, their validated scenarios, and their reference points."""
+    """The study's points, their validated scenarios (an inconsistent point is kept as invalid
+    with its message), and their reference points."""
 
     def __init__(self, study: Study) -> None:
         self.study = study

@@ -38,7 +38,7 @@ def write_study_outputs(result: StudyResult, out: Path) -> None:
 def results_csv(result: StudyResult) -> str:
     """One line per run: identity, parameters, each metric (rates as ``_k`` and ``_n``)."""
     params = list(dict.fromkeys(k for r in result.table for k in r["params"]))
-    metrics = [m for m in dict.fromkeys(k for r in result.table for k in (r["metrics"] or {}))]
+    metrics = list(dict.fromkeys(k for r in result.table for k in (r["metrics"] or {})))
     cols = ["point", "kind", "replicate", "seed", "status", "wall_s", *params]
     for m in metrics:
         cols += [f"{m}_k", f"{m}_n"] if CATALOGUE[m].kind == "rate" else [m]

@@ -245,13 +245,15 @@ def _check_whole(err: _Errors, study: Study) -> None:
         err.fail("study.axis", [a.key for a in study.axes if a.zip],
                  f"zipped axes must have the same number of values (have {sorted(lengths)})")
     if study.search == "bisect":
-        budget = [a for a in study.budget_axes]
+        budget = study.budget_axes
         if len(budget) != 1 or budget[0].zip:
             err.fail("study.search", "bisect", "bisects exactly one budget axis (mark the "
                      "others given = true); have " + str([a.key for a in budget]))
         if not study.requirements:
             err.fail("study.search", "bisect", "needs a [study.requirement] to decide points")
-    n_points = len(expand_points(study)) + (len(expand_points(study)) if study.reference else 0)
+    # counted, not expanded: a grid too large to hold is refused before it is built
+    n_points = math.prod(len(g[0].values) for g in _axis_groups(study.axes))
+    n_points *= 2 if study.reference else 1
     rows = n_points * study.replicates
     if rows > MAX_ROWS:
         err.fail("study.replicates", study.replicates,
@@ -273,16 +275,22 @@ def _check_whole(err: _Errors, study: Study) -> None:
             err.fail("study.metric", m, problem)
 
 
-def expand_points(study: Study) -> list[Point]:
-    """The grid: zipped axes form one compound axis at the place of the first of them."""
+def _axis_groups(axes: tuple[Axis, ...]) -> list[list[Axis]]:
+    """The grid's dimensions: each axis alone, and every zipped axis in one group at the place
+    of the first of them."""
     groups: list[list[Axis]] = []
-    for a in study.axes:
-        if a.zip and groups and groups[-1][0].zip:
-            groups[-1].append(a)
-        elif a.zip and any(g[0].zip for g in groups):
-            next(g for g in groups if g[0].zip).append(a)
-        else:
+    for a in axes:
+        zipped = next((g for g in groups if g[0].zip), None) if a.zip else None
+        if zipped is None:
             groups.append([a])
+        else:
+            zipped.append(a)
+    return groups
+
+
+def expand_points(study: Study) -> list[Point]:
+    """The grid: the product of the axis groups (:func:`_axis_groups`)."""
+    groups = _axis_groups(study.axes)
     ranges = [range(len(g[0].values)) for g in groups]
     points = []
     for idx in itertools.product(*ranges):
