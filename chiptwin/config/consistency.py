@@ -25,6 +25,7 @@ BUILT_LEVELS: dict[str, tuple[str, ...]] = {
     "kinetics": ("closed_form", "cascade"),
     "photons": ("expected", "binned", "events"),
     "optics": ("na2", "psf"),
+    "shot": ("poisson",),
     "dsp": ("float", "fixed", "rtl"),
 }
 
@@ -50,7 +51,13 @@ def _name(s: Scenario) -> None:
 
 def _fidelity(s: Scenario) -> None:
     levels = {**{f: getattr(s.run.fidelity, f) for f in BUILT_LEVELS}, "dsp": s.dsp_level}
+    auto = s.run.fidelity.auto_stages()
+    if auto and not s.run.error_budget.items():
+        _fail(s, f"run.fidelity.{auto[0]}", "auto",
+              "needs [run] error_budget, the error it may spend (e.g. { snr_rel = 0.01 })")
     for stage, level in levels.items():
+        if level == "auto":
+            continue  # resolved before the run (chiptwin.fidelity), then checked again
         if level not in BUILT_LEVELS[stage]:
             key = "chip.dsp.mode" if stage == "dsp" and not s.run.fidelity.dsp else (
                 f"run.fidelity.{stage}")

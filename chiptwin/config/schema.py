@@ -7,7 +7,7 @@ cross-field rules live in :mod:`chiptwin.config.consistency`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 from chiptwin.config.fields import param
 from chiptwin.constants import MAX_TIME_S, TICK_S
@@ -289,12 +289,59 @@ class Chip:
 
 @dataclass(frozen=True)
 class Fidelity:
-    """``[run.fidelity]``: the level of each stage (SPEC: the fidelity ladder)."""
+    """``[run.fidelity]``: the level of each stage (SPEC: the fidelity ladder).
 
-    kinetics: str = param("closed_form", choices=("closed_form", "cascade"))
-    photons: str = param("binned", choices=("expected", "binned", "events"))
-    optics: str = param("psf", choices=("na2", "psf", "raytrace"))
-    dsp: str = param("", choices=("", "float", "fixed", "rtl"), doc='"" = [chip.dsp] mode')
+    ``"auto"`` picks the cheapest level whose error on the scene stays within ``[run]
+    error_budget`` (:mod:`chiptwin.fidelity`).
+    """
+
+    kinetics: str = param("closed_form", choices=("closed_form", "cascade", "auto"))
+    photons: str = param("binned", choices=("expected", "binned", "events", "auto"))
+    optics: str = param("psf", choices=("na2", "psf", "raytrace", "auto"))
+    shot: str = param(
+        "poisson", choices=("poisson", "gaussian", "auto"),
+        doc="photon shot noise of the binned level: exact Poisson counts, or a normal of the "
+            "same mean and variance (faster; wrong for dim pixels)")
+    dsp: str = param("", choices=("", "float", "fixed", "rtl", "auto"),
+                     doc='"" = [chip.dsp] mode')
+
+    def auto_stages(self) -> tuple[str, ...]:
+        """The stages set to ``"auto"``."""
+        return tuple(f.name for f in fields(self) if getattr(self, f.name) == "auto")
+
+
+#: What ``[run] error_budget`` may bound, each against the reference combination of levels.
+BUDGET_FIGURES = {
+    "snr_rel": "relative error of each site's SNR (amplitude)",
+    "snr_db": "error of each site's power SNR in dB",
+    "signal_rel": "relative error of each site's signal",
+    "noise_rel": "relative error of each site's noise",
+    "flow_value_abs": "absolute error of each pyrosequencing flow value (bases)",
+    "dsp_lsb": "error of the DSP's outputs in LSB",
+}
+
+
+@dataclass(frozen=True)
+class ErrorBudget:
+    """``[run] error_budget``: the error ``auto`` fidelity may spend, per headline figure.
+
+    A figure not set is not budgeted. Errors are against the most faithful levels (the ladder's
+    reference), as an upper estimate on this scene (the analytic bound, or a calibration run's
+    measured error plus its uncertainty).
+    """
+
+    snr_rel: float | None = param(None, lo=0.0, hi=1.0, doc=BUDGET_FIGURES["snr_rel"])
+    snr_db: float | None = param(None, lo=0.0, hi=20.0, doc=BUDGET_FIGURES["snr_db"])
+    signal_rel: float | None = param(None, lo=0.0, hi=1.0, doc=BUDGET_FIGURES["signal_rel"])
+    noise_rel: float | None = param(None, lo=0.0, hi=1.0, doc=BUDGET_FIGURES["noise_rel"])
+    flow_value_abs: float | None = param(None, lo=0.0, hi=1.0,
+                                         doc=BUDGET_FIGURES["flow_value_abs"])
+    dsp_lsb: float | None = param(None, lo=0.0, hi=2.0**20, doc=BUDGET_FIGURES["dsp_lsb"])
+
+    def items(self) -> dict[str, float]:
+        """The budgeted figures and their tolerances."""
+        return {f.name: getattr(self, f.name) for f in fields(self)
+                if getattr(self, f.name) is not None}
 
 
 @dataclass(frozen=True)
@@ -314,6 +361,7 @@ class Run:
     save_frames: bool = param(
         False, kind=bool, doc="stream every frame as read to frames.npy in the output folder")
     fidelity: Fidelity = field(default_factory=Fidelity)
+    error_budget: ErrorBudget = field(default_factory=ErrorBudget)
 
 
 @dataclass(frozen=True)
