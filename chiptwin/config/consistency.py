@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import re
 
-from chiptwin.config.budget import FOOTPRINT_PER_HEIGHT_MAX, check_budget
+from chiptwin.config.budget import FOOTPRINT_PER_HEIGHT_MAX, amount_key, check_budget
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
 from chiptwin.constants import Q_E, s_to_ticks
@@ -33,7 +33,7 @@ BUILT_LEVELS: dict[str, tuple[str, ...]] = {
 def check_consistency(s: Scenario) -> None:
     """Run every cross-field rule on a built scenario."""
     for rule in (_name, _fidelity, _assay, _cascade, _sites, _optics, _timing, _adc_range,
-                 _memory, _duration, _matched_filter, check_budget):
+                 _memory, _duration, _matched_filter, check_budget, _site_amounts):
         rule(s)
 
 
@@ -295,6 +295,39 @@ def _matched_filter(s: Scenario) -> None:
               f"decays by e^{k * block_s:.3g} within one output block ({block_s:g} s) with "
               f"run.light_estimator = \"matched\": the filter needs light that lasts; it must "
               f"be ≤ {MATCHED_EFOLDS_PER_BLOCK_MAX / block_s:.3g} 1/s, or the estimator \"sum\"")
+
+
+def _site_amounts(s: Scenario) -> None:
+    """``[sites] amounts_fmol``: one amount per site, each in [0, the ``[assay]`` amount].
+
+    The light of every closed-form assay is proportional to its analyte (eqs. 5–19), so a site's
+    light is the ``[assay]`` amount's scaled by the site's share (chiptwin.dose_response); the
+    cascade's is not, and light given at the diode (``flux``) has no analyte.
+    """
+    amounts = s.sites.amounts_fmol
+    if not amounts:
+        return
+    if s.assay.kind == "flux":
+        _fail(s, "sites.amounts_fmol", _short(str(amounts)),
+              'assay kind "flux" gives light at the diode, with no analyte to dose')
+    if s.run.fidelity.kinetics == "cascade":
+        _fail(s, "sites.amounts_fmol", _short(str(amounts)),
+              'needs run.fidelity.kinetics = "closed_form": per-site amounts scale the light, '
+              "which is proportional to the amount in the closed forms only")
+    at = s.sites.at_pixels
+    n = {"all": s.chip.n_pixels, "centre": 1}.get(at, 0) if isinstance(at, str) else len(at)
+    if len(amounts) != n:
+        _fail(s, "sites.amounts_fmol", _short(str(amounts)),
+              f"must list one amount per site: {n} sites (sites.at_pixels), {len(amounts)} given")
+    key = amount_key(s)
+    top = getattr(s.assay, key) * (1e-3 if key.endswith("_amol") else 1.0)
+    for v in amounts:
+        number = isinstance(v, (int, float)) and not isinstance(v, bool)
+        if not number or not 0.0 <= v <= top:  # NaN fails both comparisons
+            _fail(s, "sites.amounts_fmol", v,
+                  f"each must be a number in [0, {top:g}] fmol: 0 is a blank site, and the "
+                  f"largest is assay.{key} = {getattr(s.assay, key):g}, which bounds the run's "
+                  "budget")
 
 
 def scenario_warnings(s: Scenario) -> list[str]:

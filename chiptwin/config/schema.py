@@ -128,6 +128,13 @@ class Sites:
         0.0, lo=0.0, hi=LENGTH_MAX_UM, doc="µm; disc footprint of a site, 0 = point; ≤ the pitch")
     height_um: float = param(15.0, lo=LENGTH_MIN_UM, hi=LENGTH_MAX_UM,
                              doc="µm above the diode (paper: 15 µm); " + LENGTHS)
+    amounts_fmol: list = param(
+        [], kind=list,
+        doc="fmol of the assay's analyte at each site, one per site in at_pixels order (a dose "
+            "response); 0 = a blank site; [] = the [assay] amount at every site. Each in "
+            "[0, the [assay] amount]: [assay] names the largest, which bounds the run's budget "
+            "(chiptwin.config.budget), and 1e-9 fmol is below one molecule",
+    )
 
 
 @dataclass(frozen=True)
