@@ -171,6 +171,11 @@ def _dispatch(args: argparse.Namespace) -> int:
         for warning in scenario_warnings(scenario):
             print(f"chiptwin: warning: {warning}", file=sys.stderr)
         print(f"{path}: ok ({scenario.scenario.name})")
+        if scenario.run.fidelity.auto_stages():
+            from chiptwin.fidelity import describe, resolve
+
+            print('fidelity "auto" would run at (nothing is run but calibrations, cached):')
+            print("\n".join(describe(resolve(scenario)[1])))
         return 0
     if args.command == "dsp-report":
         return _dsp_report(scenario, args.json)

@@ -41,10 +41,11 @@ LEVELS: dict[str, tuple[str, ...]] = {
     "kinetics": ("closed_form", "cascade"),
     "photons": ("expected", "binned", "events"),
     "optics": ("na2", "psf"),
+    "shot": ("gaussian", "poisson"),
     "dsp": ("float", "fixed", "rtl"),
 }
 #: Stages whose levels all draw the same random numbers for the same seed (the photon levels
-#: draw differently: none, counts, arrival times).
+#: draw differently: none, counts, arrival times; the shot levels a normal or a Poisson count).
 SAME_DRAWS = frozenset({"kinetics", "optics", "dsp"})
 
 
@@ -106,6 +107,8 @@ def plan(s: Scenario, reference: dict[str, str] | None = None) -> list[Rung]:
             check_consistency(with_levels(s, r.fidelity))
         except ScenarioError as exc:
             r.skipped = exc.allowed
+        if r.stage == "shot" and r.fidelity["photons"] == "expected":
+            r.skipped = "the expected photon level draws no counts: the shot level cannot matter"
     return rungs
 
 

@@ -18,12 +18,13 @@ from typing import Any
 
 import numpy as np
 
-from chiptwin import __version__, pixel, stages
+from chiptwin import __version__, fidelity, pixel, stages
 from chiptwin.chip import ChipRun, Recorder, Schedule, simulate_chip
 from chiptwin.config import Scenario, load_scenario
 from chiptwin.config.consistency import check_consistency, scenario_warnings
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
 from chiptwin.dsp.pipeline import BlockOut, Frame, Pipeline, chain_for
+from chiptwin.fidelity import AutoChoice
 from chiptwin.results import detect, light_decay_per_s
 from chiptwin.scene import ChainOutput, PixelFrames, Scene, StageTimer, stage_rng
 
@@ -65,19 +66,23 @@ def run(
     else:
         s = load_scenario(scenario, overrides, seed)
     check_consistency(s)  # a Scenario built or replaced in Python meets the file's rules too
+    s, choice = fidelity.resolve(s)
     timer = StageTimer()
-    return run_prepared(s, prepare(s, timer), timer, progress, t_start)
+    return run_prepared(s, prepare(s, timer), timer, progress, t_start, choice)
 
 
 def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
                  progress: Callable[[int, int], None] | None = None,
-                 t_start: float | None = None) -> Result:
+                 t_start: float | None = None, choice: AutoChoice | None = None) -> Result:
     """The chip model and the detection for a scene :func:`prepare` made of ``s``.
 
     A study prepares a point once and calls this per replicate with ``s`` carrying the
     replicate's seed: the result is bit for bit the one :func:`run` gives for that seed (the
-    random draws all happen here, from ``s.scenario.seed``'s named streams).
+    random draws all happen here, from ``s.scenario.seed``'s named streams). ``s`` has no
+    ``auto`` level left (:func:`chiptwin.fidelity.resolve`); ``choice``, what resolved them,
+    goes in the summary.
     """
+    _check_resolved(s)
     t_start = time.perf_counter() if t_start is None else t_start
     timer = timer or StageTimer()
     rec = Recorder()
@@ -98,8 +103,16 @@ def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
         wall_time_s=round(time.perf_counter() - t_start, 6),
         snr_definition=SNR_DEFINITION,
         warnings=scenario_warnings(s),
+        **(choice.summary() if choice else {}),
     )
     return Result(summary=summary, arrays=arrays, trace=rec, scenario=s, frames_path=frames_path)
+
+
+def _check_resolved(s: Scenario) -> None:
+    auto = s.run.fidelity.auto_stages()
+    if auto:
+        raise ValueError(f"run.fidelity.{auto[0]} is still \"auto\": resolve it first "
+                         "(chiptwin.fidelity.resolve)")
 
 
 def _frames_file() -> Path:
@@ -116,6 +129,7 @@ def fidelity_used(s: Scenario) -> dict[str, str]:
     return {"kinetics": "none" if flux else s.run.fidelity.kinetics,
             "photons": s.run.fidelity.photons,
             "optics": "none" if flux else s.run.fidelity.optics,
+            "shot": "none" if s.run.fidelity.photons == "expected" else s.run.fidelity.shot,
             "dsp": s.dsp_level}
 
 
@@ -123,6 +137,7 @@ def prepare(s: Scenario, timer: StageTimer | None = None) -> Scene:
     """Kinetics and optics: photons per site in every integration window, and the site-to-pixel
     coupling. The light per pixel (``coupling @ site_photons``) is made later, a block of frames
     at a time, as the chip model reaches them (:meth:`Scene.pixel_block`)."""
+    _check_resolved(s)
     timer = timer or StageTimer()
     sch = Schedule.from_chip(s.chip, s.run.duration_s)
     with timer("kinetics"):
@@ -266,7 +281,7 @@ class _FrameReader:
             conversion_gain_uV_per_e=sensor.conversion_gain_uV_per_e,
             pedestal_V=sensor.pedestal_V, bits=adc.bits, v_min_V=adc.v_min_V,
             v_max_V=adc.v_max_V, offset_lsb=adc.offset_error_lsb, gain_error=adc.gain_error,
-            counted_pixels=pixels, counted_e=counted)
+            counted_pixels=pixels, counted_e=counted, shot_noise=self.s.run.fidelity.shot)
 
     def close(self) -> None:
         if self.saved is not None:

@@ -25,7 +25,7 @@ BUILT_LEVELS: dict[str, tuple[str, ...]] = {
     "kinetics": ("closed_form", "cascade"),
     "photons": ("expected", "binned", "events"),
     "optics": ("na2", "psf"),
-    "shot": ("poisson",),
+    "shot": ("poisson", "gaussian"),
     "dsp": ("float", "fixed", "rtl"),
 }
 

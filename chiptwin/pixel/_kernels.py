@@ -220,13 +220,14 @@ def chain_chunk(
 @NJIT
 def frame_codes(
     gen, mean_e, counted_pixels, counted_e, full_well, ktc, read_noise, true_cds, pedestal, cg_V,
-    v_min, lsb, adc_gain, offset, top, codes_out,
+    v_min, lsb, adc_gain, offset, top, gauss_min_mean, codes_out,
 ):  # fmt: skip
     """Frames of the ``binned`` level, one after another, from the NumPy ``Generator`` ``gen``.
 
     ``mean_e`` is ``(n_frames, n)``: the expected charge of each pixel in each frame. Per frame,
     in the order of ``sample_frame`` (so the draws are its draws): the Poisson count of every
-    pixel, clipped at ``full_well`` (then replaced by ``counted_e[f]`` for ``counted_pixels``,
+    pixel (:func:`gaussian_count` for means ≥ ``gauss_min_mean``; ``inf`` = exact Poisson
+    everywhere), clipped at ``full_well`` (then replaced by ``counted_e[f]`` for ``counted_pixels``,
     charge counted another way); if ``ktc > 0`` the signal kTC draw of every pixel, then (without
     ``true_cds``) the reset kTC draw of every pixel; the ``(M, n)`` reset samples' read noise, the
     ``(M, n)`` signal samples' read noise. Each sample is formed and converted as in
@@ -240,7 +241,7 @@ def frame_codes(
     k_reset = np.zeros(n)
     for f in range(n_frames):
         for i in range(n):
-            collected[i] = min(float(poisson(gen, mean_e[f, i])), full_well)
+            collected[i] = min(gaussian_count(gen, gen, mean_e[f, i], gauss_min_mean), full_well)
         for j in range(counted_pixels.size):
             collected[counted_pixels[j]] = counted_e[f, j]
         if ktc > 0.0:

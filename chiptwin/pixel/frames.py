@@ -17,6 +17,7 @@ count (tested).
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -65,6 +66,11 @@ def default_threads() -> int:
         return os.cpu_count() or 1
 
 
+#: Mean charge from which each ``shot_noise`` level draws the normal instead of the Poisson
+#: count: never (``poisson``), always (``gaussian``). Unit: e⁻.
+SHOT_MIN_MEAN_E = {"poisson": math.inf, "gaussian": 0.0}
+
+
 def binned_codes(
     rng: np.random.Generator | Sequence[np.random.Generator],
     mean_e: ArrayLike,
@@ -84,6 +90,7 @@ def binned_codes(
     counted_pixels: ArrayLike = (),
     counted_e: ArrayLike | None = None,
     threads: int | None = None,
+    shot_noise: str = "poisson",
 ) -> NDArray[np.int64]:
     """ADC codes of the reset and signal samples of ``n_frames`` frames, drawn in frame order.
 
@@ -110,6 +117,11 @@ def binned_codes(
         Their collected charge in each frame. Unit: e⁻.
     threads : int, optional
         Threads drawing the chunks (default :func:`default_threads`); never changes the codes.
+    shot_noise : {"poisson", "gaussian"}
+        ``"poisson"``: exact counts. ``"gaussian"`` (the ``[run.fidelity] shot`` level): every
+        count is ``max(0, rint(λ + √λ·z))``, the normal of the same mean and variance (plus
+        1/12 e⁻² of rounding); its total-variation distance to the Poisson law is
+        :func:`chiptwin.fidelity.gaussian_tv` of the mean (≈ 0.13/√λ: 0.004 at λ = 1000).
 
     Returns
     -------
@@ -126,7 +138,9 @@ def binned_codes(
                               offset_lsb, gain_error)
     pixels, counted = _counted(counted_pixels, counted_e, lam.shape)
     codes = np.empty((lam.shape[0], 2 * m, lam.shape[1]), np.int64)
-    consts = (fw, ktc, read, bool(true_cds), *readout)
+    if shot_noise not in SHOT_MIN_MEAN_E:
+        raise ValueError(f"shot_noise = {shot_noise!r}: must be one of {sorted(SHOT_MIN_MEAN_E)}")
+    consts = (fw, ktc, read, bool(true_cds), *readout, SHOT_MIN_MEAN_E[shot_noise])
     if isinstance(rng, np.random.Generator):
         _kernels.frame_codes(rng, lam, pixels, counted, *consts, codes)
         return codes

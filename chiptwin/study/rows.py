@@ -65,18 +65,22 @@ _SCENES: OrderedDict[str, Any] = OrderedDict()
 
 
 def _scene(task: RowTask, s: Scenario):
+    """The point's scene, its ``auto`` fidelity resolved (once per point) and the choice."""
+    from chiptwin.fidelity import resolve
     from chiptwin.run import chip_sensor, prepare
 
-    scene = _SCENES.get(task.point)
-    if scene is None:
-        scene = prepare(s)
-        _SCENES[task.point] = scene
+    cached = _SCENES.get(task.point)
+    if cached is None:
+        resolved, choice = resolve(s)
+        cached = (prepare(resolved), resolved, choice)
+        _SCENES[task.point] = cached
         while len(_SCENES) > SCENE_CACHE_SIZE:
             _SCENES.popitem(last=False)
     _SCENES.move_to_end(task.point)
+    scene, resolved, choice = cached
     if s.chip.fixed_pattern_seed < 0:  # every replicate another chip: redraw PRNU/DSNU
         scene = replace(scene, sensor=chip_sensor(s))
-    return scene
+    return scene, replace(resolved, scenario=s.scenario), choice
 
 
 def run_row(task: RowTask) -> dict[str, Any]:
@@ -89,7 +93,8 @@ def run_row(task: RowTask) -> dict[str, Any]:
 
     s = replace(task.scenario, scenario=replace(task.scenario.scenario, seed=task.seed))
     try:
-        result = run_prepared(s, _scene(task, s))
+        scene, s, choice = _scene(task, s)
+        result = run_prepared(s, scene, choice=choice)
         metrics = measure(result, task.metrics)
     except ScenarioError as exc:
         return row_record(task, "invalid", None, str(exc), time.perf_counter() - t0)
