@@ -137,6 +137,9 @@ def make_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
             ax.axhline(n, color="grey", lw=0.5, ls=":")
         plots.append(_save(fig, folder, "pyrogram.png", "Pyrogram of site 0"))
 
+    if "dose_response" in result.summary:
+        plots.append(_dose_response_plot(result.summary["dose_response"], a, folder))
+
     fig, ax = plt.subplots(figsize=(7, 2.5))
     ax.step(a["memory_t_s"], a["memory_frames"], where="post")
     ax.set(xlabel="time (s)", ylabel="frames", title="Frame memory occupancy")
@@ -184,6 +187,41 @@ def _array_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
     plots.append(_save(fig, folder, "snr_histogram.png",
                        "Histogram of the per-site SNR (stacked: sites called right and wrong)"))
     return plots
+
+
+def _dose_response_plot(dose: dict[str, Any], a: dict[str, np.ndarray], folder: Path
+                        ) -> tuple[str, str]:
+    """Signal and power SNR against the amount (log–log): measured points with their noise, the
+    expected response, the blank's 3σ threshold and the limit of detection."""
+    import matplotlib.pyplot as plt
+
+    amounts, dosed = a["dose_amount_amol"], a["dose_amount_amol"] > 0
+    x, y, sd = amounts[dosed], a["dose_signal_e"][dosed], a["dose_sd_e"][dosed]
+    order = np.argsort(x)
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(10, 4))
+    pos = y > 0
+    ax.errorbar(x[pos], y[pos], yerr=sd[pos], fmt="o", ms=4, label="measured ± noise (1σ)")
+    ax.plot(x[order], a["dose_expected_e"][dosed][order], "-", lw=1, label="expected")
+    lod = dose.get("lod_amol")
+    if "threshold_e" in dose:
+        ax.axhline(dose["threshold_e"], color="r", ls="--", lw=1, label="blank + 3σ (model)")
+    if lod is not None and np.isfinite(lod):
+        ax.axvline(lod, color="k", ls=":", lw=1, label=f"LoD {lod:.3g} amol")
+    ax.set(xscale="log", yscale="log", xlabel=f"{dose['analyte']} per site (amol)",
+           ylabel="signal (e⁻)", title="Dose response")
+    ax.legend(fontsize=7)
+    snr_p = (y / sd) ** 2
+    ax2.loglog(x, np.maximum(snr_p, 1e-3), "o", ms=4)
+    ax2.axhline(dose["k_sigma"] ** 2, color="r", ls="--", lw=1,
+                label=f"power SNR {dose['k_sigma'] ** 2:g} (amplitude {dose['k_sigma']:g})")
+    if lod is not None and np.isfinite(lod):
+        ax2.axvline(lod, color="k", ls=":", lw=1)
+    ax2.set(xlabel="amount per site (amol)", ylabel="SNR (power)", title="SNR per dose")
+    ax2.legend(fontsize=7)
+    caption = "Dose response and SNR per dose" + (
+        f"; limit of detection {lod:.3g} amol (blank + 3σ)" if lod is not None
+        and np.isfinite(lod) else "")
+    return _save(fig, folder, "dose_response.png", caption)
 
 
 def _save(fig, folder: Path, name: str, caption: str) -> tuple[str, str]:
@@ -234,6 +272,14 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
         ok = summary["called_sequence"] == summary["true_sequence"]
         rows.append(("true sequence", summary["true_sequence"]))
         rows.append(("called sequence", summary["called_sequence"] + ("  ✓" if ok else "  ✗")))
+    if "lod_amol" in summary.get("dose_response", {}):
+        d = summary["dose_response"]
+        text = f"{d['lod_amol']:.3g} amol ({d['lod_molecules']:.3g} molecules), blank + 3σ"
+        if "lod_from_blank_spread_amol" in d:
+            text += (f"; from the {d['blank']['n_sites']} blanks' spread "
+                     f"{d['lod_from_blank_spread_amol']:.3g} ± "
+                     f"{d['lod_from_blank_spread_se_amol']:.2g} amol")
+        rows.append(("limit of detection", text))
     if "required_flux_photons_per_s_per_um2" in summary:
         rows.append((f"flux for SNR {summary['required_flux_snr_power']:g} (power)",
                      f"{summary['required_flux_photons_per_s_per_um2']:.4g} photons/s/µm²"))

@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from chiptwin import stages
-from chiptwin.config import Scenario
+from chiptwin import dose_response, stages
+from chiptwin.config import Scenario, ScenarioError
 from chiptwin.detection import snr, window_sums
 from chiptwin.kinetics import pyro
 
@@ -65,6 +65,11 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
                 "saturated_frames"] else None
     summary["sites"] = sites
     summary["array"] = array_figures(summary, sites)
+    if s.sites.amounts_fmol:
+        _require_site_amounts(s, scene)
+        summary["dose_response"], dose_arrays = dose_response.dose_response(
+            s, scene, out, sites, light_decay_per_s(s))
+        arrays.update(dose_arrays)
     arrays["site_snr_power"] = np.array([site["snr_power"] for site in sites])
     if "called_sequences" in summary:
         arrays["site_called_right"] = np.array(
@@ -90,6 +95,16 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     summary["results_valid"] = not set(summary["chip"]["flags"]) & INVALIDATING_FLAGS
     summary["light_estimator"] = s.run.light_estimator
     return summary, arrays
+
+
+def _require_site_amounts(s: Scenario, scene: Scene) -> None:
+    """Refuse figures from a scene whose light ignores ``[sites] amounts_fmol``: a run path that
+    prepares the scene without :func:`chiptwin.dose_response.scale_source` would report a dose
+    response of equal amounts."""
+    if not dose_response.honours_amounts(s, scene):
+        raise ScenarioError(s.source, "sites.amounts_fmol", str(s.sites.amounts_fmol)[:40],
+                            "per-site amounts are not applied by this run path (its scene was "
+                            "prepared without chiptwin.dose_response.scale_source)")
 
 
 def _site_rows(s: Scenario, rc: np.ndarray, signal: np.ndarray, noise: np.ndarray,
