@@ -15,6 +15,7 @@ from chiptwin import dose_response, stages
 from chiptwin.config import Scenario, ScenarioError
 from chiptwin.detection import snr, window_sums
 from chiptwin.kinetics import pyro
+from chiptwin.programs import program_figures
 
 if TYPE_CHECKING:
     from chiptwin.chip import ChipRun, Schedule
@@ -90,6 +91,7 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     if out.full_well_pixel_frames:
         summary["chip"]["flags"].append("full_well")
     summary["dsp"] = dsp_figures(out.dsp)
+    program_figures(s, scene, out, summary, arrays)  # [chip.dsp] program (chiptwin.programs)
     # A dropped frame makes the DSP average non-consecutive frames, as the chip would; the
     # figures are still reported, but not as trustworthy.
     summary["results_valid"] = not set(summary["chip"]["flags"]) & INVALIDATING_FLAGS

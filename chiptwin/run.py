@@ -24,6 +24,7 @@ from chiptwin.config import Scenario, load_scenario
 from chiptwin.config.consistency import check_consistency, scenario_warnings
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
 from chiptwin.dsp.pipeline import BlockOut, Frame, Pipeline, chain_for
+from chiptwin.dsp.program import is_default
 from chiptwin.fidelity import AutoChoice
 from chiptwin.results import detect, light_decay_per_s
 from chiptwin.scene import ChainOutput, PixelFrames, Scene, StageTimer, stage_rng
@@ -201,7 +202,12 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
 
 
 def _dsp_level(s: Scenario, keep_codes: bool) -> Pipeline:
-    """The DSP at the scenario's level: float, bit-accurate fixed point, or the RTL."""
+    """The DSP at the scenario's level: float, bit-accurate fixed point, or the RTL; a program
+    beyond today's chain (``[chip.dsp] program``) runs its further stages after it."""
+    if not is_default(s.chip.dsp.program):
+        from chiptwin.programs import program_pipeline
+
+        return program_pipeline(s, keep_codes)
     chain = chain_for(s.chip) if s.dsp_level in ("fixed", "rtl") else None
     if s.dsp_level == "rtl":
         from chiptwin.rtl import RtlPipeline
@@ -334,6 +340,8 @@ class _TimedPipeline:
     def block(self, frames):
         with self.timer("dsp"):
             out = self.inner.block(frames)
+            if out is None:  # a program's kinetics stage between the ends of its windows
+                return None
             if self.sites is not None:
                 value_e = out.value * self.e_per_lsb
                 total = value_e[self.sites].sum()

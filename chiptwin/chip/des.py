@@ -46,14 +46,25 @@ class Schedule:
     dark_frames: int
     block_frames: int
     dsp_ns_per_frame: int
+    #: DSP time of the program's stages after average / kinetics, per output (0 for the chain).
+    dsp_ns_per_output: int = 0
 
     @classmethod
     def from_chip(cls, chip: Chip, duration_s: float) -> Schedule:
-        """Derive the schedule: conversions from bits and ADC clock, DSP time from its clock."""
+        """Derive the schedule: conversions from bits and ADC clock, DSP time from its clock.
+
+        The DSP program (:func:`chiptwin.dsp.program.program_load`) sets what stays in memory
+        (the dark reference, a kinetics accumulator, filter buffers, the Wiener table), the
+        frames per DSP job and the cycles per frame and per output. ``dsp_ns_per_frame``
+        includes the output cycles spread over the frames of a job (the check that the DSP keeps
+        up); with kinetics a job is one frame, so that spread is an upper bound.
+        """
+        from chiptwin.dsp.program import program_load
+
+        load = program_load(chip)
         period = s_to_ticks(chip.timing.frame_period_s)
-        words = chip.n_pixels * chip.samples_per_frame
-        dsp_s = words * chip.dsp.cycles_per_sample / chip.dsp.clock_hz
-        dark_ref_bits = chip.memory.word_bits * chip.n_pixels
+        dsp_s = load.cycles_per_frame / chip.dsp.clock_hz
+        per_out = s_to_ticks(load.cycles_per_output / chip.dsp.clock_hz)
         return cls(
             n_frames=int(s_to_ticks(duration_s) // period),
             frame_period_ns=period,
@@ -61,10 +72,11 @@ class Schedule:
             t_conv_ns=s_to_ticks(chip.adc.conversion_time_s),
             t_int_ns=s_to_ticks(chip.timing.t_int_s),
             cms_samples=chip.dsp.cms_samples,
-            memory_frames=(chip.memory.capacity_bits - dark_ref_bits) // chip.frame_bits,
+            memory_frames=(chip.memory.capacity_bits - load.resident_bits) // chip.frame_bits,
             dark_frames=chip.dsp.n_dark_frames,
-            block_frames=chip.dsp.average_frames,
-            dsp_ns_per_frame=max(1, s_to_ticks(dsp_s)),
+            block_frames=load.frames_per_job,
+            dsp_ns_per_frame=max(1, s_to_ticks(dsp_s)) + -(-per_out // load.frames_per_job),
+            dsp_ns_per_output=per_out,
         )
 
     def window_s(self, k: int) -> tuple[float, float]:
@@ -186,14 +198,19 @@ def _dsp(env, sch: Schedule, dsp: DspEngine, memory: FrameMemory, rec, run):
         for _ in range(size):
             items.append((yield memory.store.get()))
         rec.record(env.now, "dsp", "job_start", len(items))
-        duration = size * sch.dsp_ns_per_frame
+        frames = [payload for _, payload in items]
+        out = None if first else dsp.block(frames)  # None: no output yet (kinetics window)
+        # the per-frame figure spreads the output cycles over a job; charge what this job did
+        spread = -(-sch.dsp_ns_per_output // sch.block_frames)
+        duration = size * (sch.dsp_ns_per_frame - spread)
+        if out is not None:
+            duration += sch.dsp_ns_per_output
         yield env.timeout(duration)
         run.dsp_busy_ns += duration
-        frames = [payload for _, payload in items]
         if first:
             dsp.dark(frames)
-        else:
-            run.outputs.append(([k for k, _ in items], dsp.block(frames)))
+        elif out is not None:
+            run.outputs.append(([k for k, _ in items], out))
         rec.record(env.now, "dsp", "job_end", len(items))
         memory.free(size)
         size, first = sch.block_frames, False

@@ -32,7 +32,9 @@ BUILT_LEVELS: dict[str, tuple[str, ...]] = {
 
 def check_consistency(s: Scenario) -> None:
     """Run every cross-field rule on a built scenario."""
-    for rule in (_name, _fidelity, _assay, _cascade, _sites, _optics, _timing, _adc_range,
+    # _dsp_program before _timing: the schedule is derived from the program's stages
+    for rule in (_name, _fidelity, _assay, _cascade, _sites, _optics, _dsp_program, _timing,
+                 _adc_range,
                  _memory, _duration, _matched_filter, check_budget, _site_amounts):
         rule(s)
 
@@ -74,7 +76,7 @@ def _fidelity(s: Scenario) -> None:
         if "verilator" in rtl.missing():
             key = "run.fidelity.dsp" if s.run.fidelity.dsp else "chip.dsp.mode"
             _fail(s, key, "rtl", f"simulates the DSP's Verilog with Verilator: {rtl.INSTALL_HINT}")
-    if s.run.fidelity.dsp and s.run.fidelity.dsp != s.chip.dsp.mode != "float":
+    if s.run.fidelity.dsp not in ("", "auto") and s.run.fidelity.dsp != s.chip.dsp.mode != "float":
         _fail(s, "run.fidelity.dsp", s.run.fidelity.dsp,
               f"contradicts chip.dsp.mode = {s.chip.dsp.mode!r}; set one of them")
 
@@ -346,3 +348,88 @@ def scenario_warnings(s: Scenario) -> list[str]:
                 f"average_frames = {d.average_frames} frames of {in_fmt.q}: {needed} bits never "
                 f"overflow; expect {d.acc_overflow} events (counted in summary['dsp'])")
     return warnings
+
+
+def _dsp_program(s: Scenario) -> None:
+    """``[chip.dsp] program``: known stages in their order, each stage's needs (assay, optics,
+    level, geometry, register widths), and the frame memory the program holds."""
+    from chiptwin.dsp import program as prog
+
+    c, key = s.chip, "chip.dsp.program"
+    program = c.dsp.program
+    bad = prog.order_problem(program)
+    if bad is not None:
+        _fail(s, key, bad[0], bad[1])
+    if prog.is_default(program):
+        return
+    if "kinetics" in program and s.assay.kind not in prog.DECAY_KEYS:
+        _fail(s, key, "kinetics",
+              f"stage 'kinetics' weights frames by the assay's decay exp(-k t); assay kind "
+              f"{s.assay.kind!r} has no decay law (kinds with one: "
+              f"{', '.join(prog.DECAY_KEYS)})")
+    if "wiener" in program:
+        _program_wiener(s)
+    if "bin_rows" in program and c.rows % prog.bin_factor(c):
+        _fail(s, "chip.dsp.bin_factor", c.dsp.bin_factor,
+              f"stage 'bin_rows' sums bin_factor rows: must divide chip.rows = {c.rows}")
+    if s.dsp_level == "rtl":
+        for stage in program:
+            if stage not in prog.RTL_STAGES:
+                _fail(s, key, stage,
+                      f"stage {stage!r} has no RTL block (rtl_ref has "
+                      f"{', '.join(x for x in prog.STAGES if x in prog.RTL_STAGES)}); run it "
+                      "at chip.dsp.mode = \"fixed\"")
+    _program_formats(s)
+    _program_memory(s)
+
+
+def _program_wiener(s: Scenario) -> None:
+    from chiptwin.dsp import program as prog
+
+    o = s.optics
+    if s.assay.kind == "flux" or o.coupling != "contact" or s.run.fidelity.optics not in (
+            "psf", "auto"):
+        _fail(s, "chip.dsp.program", "wiener",
+              "stage 'wiener' equalizes the optics' coupling matrix (the PSF of contact "
+              "imaging): it needs optics.coupling = \"contact\", run.fidelity.optics = \"psf\" "
+              f"and an assay (not light given at the sensor); here coupling {o.coupling!r}, "
+              f"optics {s.run.fidelity.optics!r}, assay {s.assay.kind!r}")
+    n = prog.grid_shape(s.chip)
+    if n[0] * n[1] > prog.WIENER_MAX_GRID:
+        _fail(s, "chip.dsp.program", "wiener",
+              f"stage 'wiener' holds an n × n coefficient table for its {n[0]} × {n[1]} input "
+              f"grid: n must be ≤ {prog.WIENER_MAX_GRID} (bin the rows first, or a smaller "
+              "array)")
+
+
+def _program_formats(s: Scenario) -> None:
+    """Register widths each stage derives must exist (≤ 64 bits, products that fit)."""
+    from chiptwin.chip.des import Schedule
+    from chiptwin.dsp import program as prog
+
+    try:
+        prog.program_formats(s.chip)
+        if "kinetics" in s.chip.dsp.program:
+            from chiptwin.programs import kinetics_plan
+
+            kinetics_plan(s, Schedule.from_chip(s.chip, s.run.duration_s))
+    except (ValueError, IndexError) as err:
+        stage = "kinetics" if "kinetics" in str(err).lower() else "the program"
+        _fail(s, "chip.dsp.program", s.chip.dsp.program,
+              f"{stage}: its registers cannot be built: {err}")
+
+
+def _program_memory(s: Scenario) -> None:
+    """What the program holds, plus the largest block of frames the DSP waits for."""
+    from chiptwin.dsp import program as prog
+
+    c = s.chip
+    costs = prog.stage_costs(c)
+    load = prog.program_load(c)
+    block = max(c.dsp.n_dark_frames, load.frames_per_job)
+    needed = block * c.frame_bits + load.resident_bits
+    if c.memory.capacity_bits < needed:
+        held = ", ".join(f"{k} {v.memory_bits}" for k, v in costs.items() if v.memory_bits)
+        _fail(s, "chip.memory.capacity_bits", c.memory.capacity_bits,
+              f"must be ≥ {needed} bits for the DSP program {c.dsp.program}: a block of {block} "
+              f"frames × {c.frame_bits} bits + what its stages hold ({held} bits)")

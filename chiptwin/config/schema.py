@@ -227,7 +227,8 @@ class Memory:
 
 @dataclass(frozen=True)
 class Dsp:
-    """``[chip.dsp]``: the on-chip DSP (background subtraction, CMS, N-frame averaging)."""
+    """``[chip.dsp]``: the on-chip DSP (background subtraction, CMS, N-frame averaging, and the
+    program's further stages: kinetics-weighted accumulation, line binning, 8-tap FIR, Wiener)."""
 
     mode: str = param("float", choices=("float", "fixed", "rtl"))
     n_dark_frames: int = param(16, kind=int, lo=1, hi=65536, doc="frames in the dark ref")
@@ -244,6 +245,34 @@ class Dsp:
     acc_bits: int = param(0, kind=int, lo=0, hi=64, doc="N-frame accumulator; 0 = exact width")
     acc_overflow: str = param("WRAP", choices=("WRAP", "SAT"), doc="N-frame accumulator")
     report_error: bool = param(False, kind=bool, doc="run the float reference beside fixed")
+    # the DSP program (chiptwin.dsp.program): ordered stages; the default is the fixed chain
+    program: list = param(
+        ["cms", "dark", "background", "average"], kind=list,
+        doc="ordered stages from cms, dark, background, average, kinetics, bin_rows, fir8, "
+            "wiener (chiptwin.dsp.program); default: the chain CMS → dark → background → "
+            "N-frame average")
+    bin_factor: int = param(
+        0, kind=int, lo=0, hi=4096,
+        doc="rows summed by bin_rows; 0 = every row (one column profile, as the paper's Fig. 12); "
+            "must divide chip.rows")
+    fir_cutoff: float = param(
+        0.25, lo=0.01, hi=0.99,
+        doc="fir8 cut-off as a fraction of the spatial Nyquist frequency (1 / 2 pitch); 0.25 "
+            "(choice) keeps structure wider than ≈ 4 pixels; 0.01 … 0.99: any narrower band "
+            "needs more than 8 taps, any wider passes everything")
+    wiener_noise_to_signal: float = param(
+        0.01, lo=0.0, hi=1.0e6,
+        doc="λ = σ_n²/σ_s² of the wiener equalizer (paper §3.3); 0 = zero forcing; 0.01 "
+            "(choice) for a site SNR of 20 dB; ≤ 1e6, where the equalizer passes nothing")
+    wiener_coef_bits: int = param(
+        18, kind=int, lo=4, hi=32,
+        doc="width of the wiener coefficient words (choice 18, an FPGA/ASIC multiplier input); "
+            "4 … 32")
+    kinetics_acc_bits: int = param(
+        44, kind=int, lo=8, hi=46,
+        doc="kinetics accumulator width, one word per pixel held in frame memory (choice 44: "
+            "the 13-bit chip's 37-bit products summed over 128 frames); 8 … 46, so that the "
+            "accumulator times the 18-bit normalisation fits 64 bits")
 
 
 @dataclass(frozen=True)
