@@ -159,8 +159,9 @@ class ProgramPipeline:
     # ------------------------------------------------------------------ the Pipeline interface
 
     @property
-    def chain(self) -> _ProgramChain:
-        return _ProgramChain(self)
+    def chain(self) -> _ProgramChain | None:
+        """Every stage's registers (None at the float level, which has none)."""
+        return None if self.front.chain is None else _ProgramChain(self)
 
     @property
     def kept(self):
