@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from chiptwin import dose_response, stages
+from chiptwin import dose_response, saturation, stages
 from chiptwin.config import Scenario, ScenarioError
 from chiptwin.detection import snr, window_sums
 from chiptwin.kinetics import pyro
@@ -91,6 +91,10 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     if out.full_well_pixel_frames:
         summary["chip"]["flags"].append("full_well")
     summary["dsp"] = dsp_figures(out.dsp)
+    section = saturation.saturation_figures(s, scene, out, idx)
+    if section is not None:
+        section["cost"] = saturation.frame_cost(s, summary["chip"])
+        summary["saturation"] = section
     program_figures(s, scene, out, summary, arrays)  # [chip.dsp] program (chiptwin.programs)
     # A dropped frame makes the DSP average non-consecutive frames, as the chip would; the
     # figures are still reported, but not as trustworthy.
