@@ -58,7 +58,7 @@ if TYPE_CHECKING:
 #: bright as the site adds ≤ 10 % to it, below a 1-mer/0-mer call's half-way threshold). Choice.
 RESOLVED_LEAK_DB = -10.0
 #: Pitches scanned for the minimum pitch, as multiples of the scenario's.
-PITCH_SCAN = np.geomspace(0.15, 2.0, 40)
+PITCH_SCAN = np.geomspace(0.1, 4.0, 60)
 
 
 # ---------------------------------------------------------------------------------------------
