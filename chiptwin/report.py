@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from chiptwin.programs import program_plots
+
 if TYPE_CHECKING:
     from chiptwin.run import Result
 
@@ -144,6 +146,7 @@ def make_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
     ax.step(a["memory_t_s"], a["memory_frames"], where="post")
     ax.set(xlabel="time (s)", ylabel="frames", title="Frame memory occupancy")
     plots.append(_save(fig, folder, "memory.png", "Frame memory occupancy"))
+    plots += program_plots(result, folder)  # [chip.dsp] program figures (chiptwin.programs)
     return plots
 
 
