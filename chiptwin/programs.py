@@ -360,3 +360,33 @@ def separation(profile: np.ndarray, cells: np.ndarray) -> dict[str, float | None
     valley = float(profile[a + 1:b].min()) if b > a + 1 else peak
     return {"peak_to_valley": peak / valley if valley > 0 else None,
             "valley_to_peak": valley / peak if peak else None}
+
+
+def program_plots(result: Any, folder: Any) -> list[tuple[str, str]]:
+    """``column_profile.png`` (programs with bin_rows): the profile before and after the
+    program, as the paper's Fig. 12 (a) and (b); ``(file name, caption)`` pairs."""
+    a = result.arrays
+    if "column_profile_before_e" not in a:
+        return []
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    cols = np.arange(a["column_profile_before_e"].shape[1])
+    cells = stages.site_pixels(result.scenario)[:, 1]
+    for ax, name, title in ((axes[0], "before", "(a) background-subtracted, binned"),
+                            (axes[1], "after", "(b) after the 8-tap FIR and PSF equalization")):
+        for row, v in enumerate(a[f"column_profile_{name}_e"]):
+            ax.plot(cols, v, lw=1.0, label="measured" if row == 0 else None)
+        for row, v in enumerate(a[f"column_profile_{name}_expected_e"]):
+            ax.plot(cols, v, "k--", lw=0.7, label="expected" if row == 0 else None)
+        for c in cells:
+            ax.axvline(c, color="grey", lw=0.5, ls=":")
+        sep = result.summary["column_profile"][f"valley_to_peak_{name}"]
+        ax.set(ylabel="e⁻ (sum of outputs)", title=f"{title}: valley/peak {sep:.2f}")
+        ax.legend(fontsize=7)
+    axes[1].set_xlabel("column")
+    fig.tight_layout()
+    fig.savefig(folder / "column_profile.png", dpi=100)
+    plt.close(fig)
+    return [("column_profile.png", "Column profile of the sites before and after the DSP "
+             "program (dotted: site columns)")]
