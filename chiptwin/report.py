@@ -141,6 +141,8 @@ def make_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
 
     if "dose_response" in result.summary:
         plots.append(_dose_response_plot(result.summary["dose_response"], a, folder))
+    if any(site.get("fills") for site in result.summary.get("saturation", {}).get("sites", [])):
+        plots.append(_saturation_plot(result.summary["saturation"], folder))
 
     fig, ax = plt.subplots(figsize=(7, 2.5))
     ax.step(a["memory_t_s"], a["memory_frames"], where="post")
@@ -227,6 +229,28 @@ def _dose_response_plot(dose: dict[str, Any], a: dict[str, np.ndarray], folder: 
     return _save(fig, folder, "dose_response.png", caption)
 
 
+def _saturation_plot(sat: dict[str, Any], folder: Path) -> tuple[str, str]:
+    """When each well filled, per flow: the time into the flow (event stream, and the closed
+    form's for the same frame) and the share of the flow's frames that filled."""
+    import matplotlib.pyplot as plt
+
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    for i, site in enumerate(sat["sites"][:MAX_CURVES]):
+        fills = site.get("fills", [])
+        flows = [f["flow"] for f in fills]
+        ax.plot(flows, [1e3 * f["fill_s"] for f in fills], "o", ms=4,
+                label=f"site {i} {site['pixel']} (event stream)")
+        ax.plot(flows, [1e3 * f["fill_expected_s"] for f in fills], "k+", ms=6,
+                label="closed form" if i == 0 else None)
+        ax2.plot(flows, [f["frames_saturated"] / f["frames"] for f in fills], "o-", ms=3, lw=0.8)
+    ax.set(yscale="log", ylabel="well full after (ms into the flow)",
+           title=f"When the wells fill ({sat['full_well_e']:.3g} e⁻)")
+    ax.legend(fontsize=7)
+    ax2.set(xlabel="flow", ylabel="frames at full well (share)", ylim=(0, 1.05))
+    return _save(fig, folder, "saturation.png",
+                 "When each site's well filled in each flow, and the share of frames that filled")
+
+
 def _save(fig, folder: Path, name: str, caption: str) -> tuple[str, str]:
     fig.tight_layout()
     fig.savefig(folder / name, dpi=100)
@@ -283,6 +307,15 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
                      f"{d['lod_from_blank_spread_amol']:.3g} ± "
                      f"{d['lod_from_blank_spread_se_amol']:.2g} amol")
         rows.append(("limit of detection", text))
+    for site in summary.get("saturation", {}).get("sites", [])[:8]:
+        fills = site.get("fills", [])
+        text = f"peak charge {site['peak_fraction_of_full_well']:.3g} × the full well"
+        if fills:
+            ms = [1e3 * f["fill_s"] for f in fills if f["frame_in_flow"] == 0]
+            text += (f"; filled in {len(fills)} flows, {site['frames_saturated']} frames "
+                     + (f"(first frame {min(ms):.3g}–{max(ms):.3g} ms into the flow)" if ms
+                        else ""))
+        rows.append((f"saturation {site['pixel']}", text))
     if "required_flux_photons_per_s_per_um2" in summary:
         rows.append((f"flux for SNR {summary['required_flux_snr_power']:g} (power)",
                      f"{summary['required_flux_photons_per_s_per_um2']:.4g} photons/s/µm²"))
