@@ -105,8 +105,11 @@ def kinetics_plan(s: Scenario, sch: Schedule) -> KineticsPlan:
 
 def grid_coupling(s: Scenario) -> np.ndarray:
     """(n_pixels, n_pixels): the coupling of a site above every pixel (the system PSF sampled on
-    the array), with the scenario's height, footprint, optics and transmission."""
-    every = replace(s, sites=replace(s.sites, at_pixels="all"))
+    the array), with the scenario's height, footprint and optics, without the transmission: a
+    scalar loss the equalizer's normalisation (each cell at its own gain) removes anyway, and
+    which could underflow the matrix."""
+    every = replace(s, sites=replace(s.sites, at_pixels="all"),
+                    optics=replace(s.optics, transmission=1.0))
     c = stages.coupling(every)
     return c.toarray() if hasattr(c, "toarray") else np.asarray(c)
 
