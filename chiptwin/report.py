@@ -240,7 +240,9 @@ def _saturation_plot(sat: dict[str, Any], folder: Path) -> tuple[str, str]:
         flows = [f["flow"] for f in fills]
         ax.plot(flows, [1e3 * f["fill_s"] for f in fills], "o", ms=4,
                 label=f"site {i} {site['pixel']} (event stream)")
-        ax.plot(flows, [1e3 * f["fill_expected_s"] for f in fills], "k+", ms=6,
+        closed = [(f["flow"], 1e3 * f["fill_expected_s"]) for f in fills
+                  if f["fill_expected_s"] is not None]
+        ax.plot([c[0] for c in closed], [c[1] for c in closed], "k+", ms=6,
                 label="closed form" if i == 0 else None)
         ax2.plot(flows, [f["frames_saturated"] / f["frames"] for f in fills], "o-", ms=3, lw=0.8)
     ax.set(yscale="log", ylabel="well full after (ms into the flow)",

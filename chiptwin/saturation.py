@@ -37,11 +37,9 @@ def site_charge_e(scene: Scene, idx: np.ndarray) -> np.ndarray:
     """Expected charge of the site pixels ``idx`` in every frame, before the full-well clip:
     QE × gain × photons on the pixel + dark current × t_int (as
     :func:`chiptwin.pixel.mean_electrons` makes it). Shape (n_sites, n_frames). Unit: e⁻."""
-    weights = scene.coupling[idx]
-    weights = weights.toarray() if sparse.issparse(weights) else np.asarray(weights)
     sensor = scene.sensor
     t_int = scene.sch.t_int_ns * 1e-9
-    photons = weights @ scene.site_photons
+    photons = np.asarray(scene.coupling[idx] @ scene.site_photons)  # sparse or dense rows
     return (sensor.qe * sensor.gain_map[idx, None] * photons
             + sensor.dark_e_per_s[idx, None] * t_int)
 
@@ -71,30 +69,61 @@ def fill_time_s(scene: Scene, pixel: int, t0_s: float, t1_s: float, full_well_e:
     return 0.5 * (lo + hi)
 
 
+#: Sites whose expected charge is made at once (a chunk of sites × frames float64 arrays).
+CHUNK_SITES = 256
+
+
+def _charge_bound_e(scene: Scene, idx: np.ndarray) -> float:
+    """An upper bound on any site pixel's expected charge in one frame, without the per-frame
+    products: the brightest site's brightest window times the largest share a site pixel gets
+    of all sites together, at the highest gain, plus the hottest dark charge. Unit: e⁻."""
+    sensor = scene.sensor
+    rows = scene.coupling[idx]
+    share = float(np.max(np.asarray(rows.sum(axis=1)))) if rows.shape[0] else 0.0
+    light = float(scene.site_photons.max()) if scene.site_photons.size else 0.0
+    return (sensor.qe * float(sensor.gain_map[idx].max()) * share * light
+            + float(sensor.dark_e_per_s[idx].max()) * scene.sch.t_int_ns * 1e-9)
+
+
+def _charge_stats(scene: Scene, idx: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Per site: the peak expected charge, its frame and the frames reaching the full well,
+    made a chunk of sites at a time (an array of 4,096 sites × 1,520 frames is 50 MB)."""
+    peak, frame, full = (np.zeros(len(idx)), np.zeros(len(idx), np.int64),
+                         np.zeros(len(idx), np.int64))
+    for lo in range(0, len(idx), CHUNK_SITES):
+        charge = site_charge_e(scene, idx[lo:lo + CHUNK_SITES])
+        if charge.shape[1]:
+            frame[lo:lo + len(charge)] = np.argmax(charge, axis=1)
+            peak[lo:lo + len(charge)] = np.max(charge, axis=1)
+        full[lo:lo + len(charge)] = np.count_nonzero(charge >= scene.sensor.full_well_e, axis=1)
+    return peak, frame, full
+
+
 def saturation_figures(s: Scenario, scene: Scene, out: ChainOutput, idx: np.ndarray
                        ) -> dict[str, Any] | None:
     """``summary['saturation']``, or None when no site pixel comes near its full well."""
     full_well = scene.sensor.full_well_e
-    charge = site_charge_e(scene, idx)
     events = out.saturation_s
-    if events is None and not (charge >= REPORT_FROM_FULL_WELL * full_well).any():
+    if events is None and _charge_bound_e(scene, idx) < REPORT_FROM_FULL_WELL * full_well:
+        return None
+    peak, frame, n_full = _charge_stats(scene, idx)
+    if events is None and not (peak >= REPORT_FROM_FULL_WELL * full_well).any():
         return None
     windows = np.array([scene.sch.window_s(k) for k in range(scene.sch.n_frames)])
     periods = _periods(s, windows[:, 0])
     sites = []
     for i, pix in enumerate(idx):
-        peak = int(np.argmax(charge[i])) if charge.shape[1] else 0
         site: dict[str, Any] = {
             "pixel": [int(pix // s.chip.cols), int(pix % s.chip.cols)],
-            "peak_charge_e": float(charge[i, peak]) if charge.shape[1] else 0.0,
-            "peak_fraction_of_full_well": float(charge[i, peak] / full_well)
-            if charge.shape[1] else 0.0,
-            "peak_frame_t_s": float(windows[peak, 0]) if charge.shape[1] else 0.0,
-            "frames_at_full_well_expected": int(np.count_nonzero(charge[i] >= full_well)),
+            "peak_charge_e": float(peak[i]),
+            "peak_fraction_of_full_well": float(peak[i] / full_well),
+            "peak_frame_t_s": float(windows[frame[i], 0]) if len(windows) else 0.0,
+            "frames_at_full_well_expected": int(n_full[i]),
         }
         if events is not None:
+            charge = site_charge_e(scene, idx[i:i + 1])[0]
             site["frames_saturated"] = int(np.isfinite(events[:, i]).sum())
-            site["fills"] = _fills(scene, int(pix), charge[i], events[:, i], windows, periods,
+            site["fills"] = _fills(scene, int(pix), charge, events[:, i], windows, periods,
                                    full_well)
         sites.append(site)
     return {"full_well_e": full_well, "photon_level": s.run.fidelity.photons,
@@ -124,7 +153,9 @@ def _fills(scene: Scene, pixel: int, charge: np.ndarray, events: np.ndarray,
         k = int(full[0])
         closed = fill_time_s(scene, pixel, windows[k, 0], windows[k, 1], full_well)
         rows.append({"flow": f, "nucleotide": label, "frame_in_flow": int(k - frames[0]),
-                     "fill_s": float(events[k] - start), "fill_expected_s": float(closed - start),
+                     "fill_s": float(events[k] - start),
+                     # None: the frame's expected charge stays below the well (it filled by chance)
+                     "fill_expected_s": float(closed - start) if np.isfinite(closed) else None,
                      "window_start_s": float(windows[k, 0] - start),
                      "frames_saturated": int(len(full)),
                      "frames_at_full_well_expected": int(np.count_nonzero(
