@@ -109,15 +109,16 @@ def saturation_figures(s: Scenario, scene: Scene, out: ChainOutput, idx: np.ndar
     peak, frame, n_full = _charge_stats(scene, idx)
     if events is None and not (peak >= REPORT_FROM_FULL_WELL * full_well).any():
         return None
-    windows = np.array([scene.sch.window_s(k) for k in range(scene.sch.n_frames)])
-    periods = _periods(s, windows[:, 0])
+    if events is not None:  # the frames' windows, to place the fills in their flows
+        windows = np.array([scene.sch.window_s(k) for k in range(scene.sch.n_frames)])
+        periods = _periods(s, windows[:, 0])
     sites = []
     for i, pix in enumerate(idx):
         site: dict[str, Any] = {
             "pixel": [int(pix // s.chip.cols), int(pix % s.chip.cols)],
             "peak_charge_e": float(peak[i]),
             "peak_fraction_of_full_well": float(peak[i] / full_well),
-            "peak_frame_t_s": float(windows[frame[i], 0]) if len(windows) else 0.0,
+            "peak_frame_t_s": scene.sch.window_s(int(frame[i]))[0],
             "frames_at_full_well_expected": int(n_full[i]),
         }
         if events is not None:
