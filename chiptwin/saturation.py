@@ -22,6 +22,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy import sparse
 
+from chiptwin.pixel import mean_electrons
+
 if TYPE_CHECKING:
     from chiptwin.config import Scenario
     from chiptwin.scene import ChainOutput, Scene
@@ -34,14 +36,13 @@ BISECTION_STEPS = 60
 
 
 def site_charge_e(scene: Scene, idx: np.ndarray) -> np.ndarray:
-    """Expected charge of the site pixels ``idx`` in every frame, before the full-well clip:
-    QE × gain × photons on the pixel + dark current × t_int (as
-    :func:`chiptwin.pixel.mean_electrons` makes it). Shape (n_sites, n_frames). Unit: e⁻."""
+    """Expected charge of the site pixels ``idx`` in every frame, before the full-well clip
+    (:func:`chiptwin.pixel.mean_electrons` of the photons on them). Shape (n_sites, n_frames).
+    Unit: e⁻."""
     sensor = scene.sensor
-    t_int = scene.sch.t_int_ns * 1e-9
     photons = np.asarray(scene.coupling[idx] @ scene.site_photons)  # sparse or dense rows
-    return (sensor.qe * sensor.gain_map[idx, None] * photons
-            + sensor.dark_e_per_s[idx, None] * t_int)
+    return mean_electrons(photons, sensor.qe, sensor.gain_map[idx, None],
+                                sensor.dark_e_per_s[idx, None] * scene.sch.t_int_ns * 1e-9)
 
 
 def expected_electrons(scene: Scene, pixel: int, t0_s: float, t_s: float) -> float:
@@ -50,8 +51,8 @@ def expected_electrons(scene: Scene, pixel: int, t0_s: float, t_s: float) -> flo
     weights = weights.toarray().ravel() if sparse.issparse(weights) else np.asarray(weights)
     sensor = scene.sensor
     photons = float(weights @ scene.source.photons(np.array([t0_s, t_s]))[:, 0])
-    return (sensor.qe * sensor.gain_map[pixel] * photons
-            + sensor.dark_e_per_s[pixel] * (t_s - t0_s))
+    return float(mean_electrons(photons, sensor.qe, sensor.gain_map[pixel],
+                                      sensor.dark_e_per_s[pixel] * (t_s - t0_s)))
 
 
 def fill_time_s(scene: Scene, pixel: int, t0_s: float, t1_s: float, full_well_e: float) -> float:
