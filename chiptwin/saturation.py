@@ -42,7 +42,7 @@ def site_charge_e(scene: Scene, idx: np.ndarray) -> np.ndarray:
     sensor = scene.sensor
     photons = np.asarray(scene.coupling[idx] @ scene.site_photons)  # sparse or dense rows
     return mean_electrons(photons, sensor.qe, sensor.gain_map[idx, None],
-                                sensor.dark_e_per_s[idx, None] * scene.sch.t_int_ns * 1e-9)
+                          sensor.dark_e_per_s[idx, None] * scene.sch.t_int_ns * 1e-9)
 
 
 def expected_electrons(scene: Scene, pixel: int, t0_s: float, t_s: float) -> float:
@@ -52,7 +52,7 @@ def expected_electrons(scene: Scene, pixel: int, t0_s: float, t_s: float) -> flo
     sensor = scene.sensor
     photons = float(weights @ scene.source.photons(np.array([t0_s, t_s]))[:, 0])
     return float(mean_electrons(photons, sensor.qe, sensor.gain_map[pixel],
-                                      sensor.dark_e_per_s[pixel] * (t_s - t0_s)))
+                                sensor.dark_e_per_s[pixel] * (t_s - t0_s)))
 
 
 def fill_time_s(scene: Scene, pixel: int, t0_s: float, t1_s: float, full_well_e: float) -> float:
