@@ -9,6 +9,11 @@ a frame memory of finite capacity until the DSP has a block: first the dark bloc
 dark reference), then blocks of N frames it averages. A frame occupies memory from its write until
 the DSP job that reads it ends. A write into a full memory is an overflow: the frame is dropped and
 counted, never silently. A DSP slower than the frames arrive is flagged.
+
+The DSP program (``[chip.dsp] program``, :mod:`chiptwin.dsp.program`) sets what the memory holds
+besides frames (dark reference, kinetics accumulator, filter buffers, Wiener table), the frames
+per job (N, or 1 with the kinetics stage, which frees each frame once added) and the time of a
+job: its frames' cycles, plus the output stages' cycles when the job makes an output.
 """
 
 from __future__ import annotations

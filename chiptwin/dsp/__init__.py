@@ -12,6 +12,9 @@
 * :mod:`.errors` — fixed-vs-float error report against each routine's analytic bound;
   :mod:`.stress` — stress data.
 * :mod:`.pipeline` — the DSP stage the chip model calls.
+* :mod:`.program` — ``[chip.dsp] program``: the stages, their order, their memory and cycles;
+  :mod:`.program_pipeline` — the chip model's DSP running a program (kinetics, line binning,
+  8-tap FIR, Wiener equalizer after the chain), noise propagated as a covariance.
 """
 
 from chiptwin.dsp.chain import ChainConfig, chain_configs

@@ -360,10 +360,6 @@ class _ProgramChain:
     def __init__(self, p: ProgramPipeline) -> None:
         self.p = p
 
-    @property
-    def average(self):
-        return self.p.front.chain.average
-
     def registers(self) -> dict[str, dict[str, Fmt]]:
         p = self.p
         regs = dict(p.front.chain.registers())
