@@ -49,6 +49,7 @@ from chiptwin.dsp.program_pipeline import (
     SpatialPlan,
     spatial_matrix,
 )
+from chiptwin.dsp.reference import wiener_matrix
 
 if TYPE_CHECKING:
     from chiptwin.config import Scenario
@@ -233,8 +234,8 @@ def measured_response(dsp: ProgramPipeline, h_norm: np.ndarray, cells: np.ndarra
     plan = dsp.spatial
     probe = ProgramPipeline(dsp.front, dsp.level, None, replace(
         plan, stages=("wiener",), rows=plan.grid_rows, cell_of_pixel=np.arange(plan.n_grid),
-        formats=replace(plan.formats, binning=None, fir=None, kinetics_out=plan.formats.wiener_in,
-                        front=plan.formats.front)))
+        formats=replace(plan.formats, binning=None, fir=None,
+                        kinetics_out=plan.formats.wiener_in)))
     fmt = plan.formats.wiener_in
     out = np.zeros((plan.n_grid, len(cells)))
     for i, j in enumerate(cells):
@@ -321,8 +322,6 @@ def minimum_pitch(s: Scenario) -> tuple[float | None, float | None]:
         c = grid_coupling(small)
         c = c / np.diag(c)[None, :]
         centre, nbs = 12, [7, 11, 13, 17]
-        from chiptwin.dsp.reference import wiener_matrix
-
         for k, a in enumerate((c, wiener_matrix(c, lam) @ c)):
             leak = max(abs(a[n, centre]) for n in nbs) / a[centre, centre]
             if found[k] is None and leak > 0 and 10 * math.log10(leak) <= RESOLVED_LEAK_DB:
