@@ -23,13 +23,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from chiptwin.constants import N_A
-from chiptwin.detection import snr, window_sums
+from chiptwin.detection import snr
 from chiptwin.kinetics.pulse_train import PulseTrain
 
 if TYPE_CHECKING:
     from chiptwin.config import Scenario
     from chiptwin.kinetics.light_source import LightSource
-    from chiptwin.scene import ChainOutput, Scene
+    from chiptwin.scene import Scene
 
 #: What each assay kind doses (``[sites] amounts_fmol``).
 ANALYTES = {"atp": "ATP", "pyrosequencing": "template DNA", "luciferase_label": "luciferase",
@@ -161,32 +161,24 @@ def blank_statistics(measured_e: np.ndarray, expected_e: np.ndarray, sd_model_e:
     return out
 
 
-def dose_response(s: Scenario, scene: Scene, out: ChainOutput, sites: list[dict],
-                  decay_per_s: float | None) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def dose_response(s: Scenario, sites: list[dict], expected: np.ndarray
+                  ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """``summary['dose_response']`` and its arrays, from the per-site rows of a run.
 
-    Each site's expected signal is the same estimator (plain sum or matched filter over the
-    light window) applied to the DSP outputs' expected values: the chip's calibration curve,
-    gain non-uniformity and cross-talk included, with no noise.
+    ``expected`` is each site's signal as the same estimator gives it on the DSP's expected
+    outputs (:func:`chiptwin.results.expected_site_signal`): the chip's calibration curve, gain
+    non-uniformity and cross-talk included, with no noise.
     """
-    idx = np.array([site["pixel"][0] * s.chip.cols + site["pixel"][1] for site in sites])
-    cols = out.columns(idx)
-    edges = np.array([s.assay.start_s, s.run.duration_s])
-    zeros = np.zeros((len(out.block_t_s), len(idx)))
-    expected, _ = window_sums(out.block_t_s, out.mean_e[:, cols], zeros, np.zeros(len(idx)),
-                              s.chip.dsp.average_frames, edges, decay_per_s)
-    expected = expected[0]
     amounts = site_amounts_fmol(s, len(sites)) * AMOL_PER_FMOL
     measured = np.array([site["signal_e"] for site in sites])
     sd = np.array([site["signal_sd_e"] for site in sites])
     blank, dosed = amounts == 0, amounts > 0
     stats = blank_statistics(measured[blank], expected[blank], sd[blank]) if blank.any() else {}
     summary: dict[str, Any] = {"analyte": ANALYTES[s.assay.kind], "unit": "amol",
-                               "estimator": s.run.light_estimator,
-                               "k_sigma": K_SIGMA, "blank": stats}
+                               "estimator": s.run.light_estimator, "k_sigma": K_SIGMA,
+                               "blank": stats}
     if stats:
-        threshold = stats["mean_model_e"] + K_SIGMA * stats["sigma_model_e"]
-        summary["threshold_e"] = threshold
+        summary["threshold_e"] = stats["mean_model_e"] + K_SIGMA * stats["sigma_model_e"]
     summary["points"] = _points(sites, amounts, measured, expected, sd, dosed,
                                 summary.get("threshold_e"))
     if dosed.any():

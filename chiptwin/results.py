@@ -69,7 +69,7 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     if s.sites.amounts_fmol:
         _require_site_amounts(s, scene)
         summary["dose_response"], dose_arrays = dose_response.dose_response(
-            s, scene, out, sites, light_decay_per_s(s))
+            s, sites, expected_site_signal(s, out, idx))
         arrays.update(dose_arrays)
     arrays["site_snr_power"] = np.array([site["snr_power"] for site in sites])
     if "called_sequences" in summary:
@@ -101,6 +101,24 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     summary["results_valid"] = not set(summary["chip"]["flags"]) & INVALIDATING_FLAGS
     summary["light_estimator"] = s.run.light_estimator
     return summary, arrays
+
+
+def expected_site_signal(s: Scenario, out: ChainOutput, idx: np.ndarray) -> np.ndarray:
+    """Each site's ``signal_e`` as the DSP's expected outputs (``out.mean_e``, no noise) give it
+    through the same estimator: the light window's total, or (pyrosequencing) the mean of the
+    key's single-base flow totals. Gain non-uniformity and cross-talk included. Unit: e⁻."""
+    a, cols = s.assay, out.columns(idx)
+    zero = np.zeros(len(idx))
+    if a.kind == "pyrosequencing":
+        edges = a.start_s + a.flow_period_s * np.arange(a.n_flows + 1)
+    else:
+        edges = np.array([a.start_s, s.run.duration_s])
+    sums, _ = window_sums(out.block_t_s, out.mean_e[:, cols], np.zeros_like(out.mean_e[:, cols]),
+                          zero, s.chip.dsp.average_frames, edges, light_decay_per_s(s))
+    if a.kind != "pyrosequencing":
+        return sums[0]
+    ones = np.flatnonzero(pyro.key_flow_counts(a.key, a.flow_order) == 1)
+    return sums[ones].mean(axis=0)
 
 
 def _require_site_amounts(s: Scenario, scene: Scene) -> None:
