@@ -214,7 +214,9 @@ class StageCost:
 def stage_costs(chip: Chip) -> dict[str, StageCost]:
     """Every stage of ``chip.dsp.program`` with its memory and cycles (module docstring table)."""
     d, p = chip.dsp, chip.n_pixels
-    fmts = program_formats(chip)
+    # register widths only where a stage holds them: today's chain needs none (and a float-level
+    # chip whose fixed-point chain would exceed 64 bits must still get its schedule)
+    fmts = program_formats(chip) if set(d.program) & set(SPATIAL) else None
     n_grid = math.prod(grid_shape(chip))
     costs = {}
     for stage in d.program:
