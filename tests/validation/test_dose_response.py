@@ -173,3 +173,20 @@ def test_blank_three_sigma_threshold_gives_the_normal_false_positive_rate():
     assert ci.low <= expected / n <= ci.high, (above, expected)
     assert expected / n == pytest.approx(1 - stats.norm.cdf(3), rel=0.05)
     assert np.std(np.concatenate(z)) == pytest.approx(1.0, abs=0.03)
+
+
+def test_a_pyrosequencing_dose_response_compares_one_mer_levels():
+    """Per-site DNA on pyro_1fmol's chip: each site's expected signal is its key 1-mer level
+    (eq. 19 light ∝ DNA, within 3 %: PRNU 1 % rms and neighbours' cross-talk), the measured
+    1-mer level is within 5 of its standard deviations of it, and the blanks read no light."""
+    s = load_scenario(SCENARIOS / "pyro_1fmol.toml", [
+        "sites.at_pixels=[[4, 8], [2, 3], [6, 12], [1, 14], [6, 3]]",
+        "sites.amounts_fmol=[1.0, 0.1, 0.01, 0, 0]"])
+    d = _run(s).summary["dose_response"]
+    points = {p["amount_amol"]: p for p in d["points"]}
+    one_fmol = points[1000.0]["expected_signal_e"]
+    for amol, p in points.items():
+        assert p["expected_signal_e"] == pytest.approx(one_fmol * amol / 1000.0, rel=0.03)
+        assert abs(p["signal_e"] - p["expected_signal_e"]) < 5 * p["noise_e"]
+    assert abs(d["blank"]["mean_model_e"]) < 0.01 * d["blank"]["sigma_model_e"]
+    assert 0 < d["lod_amol"] < 100.0
