@@ -87,6 +87,8 @@ def kinetics_plan(s: Scenario, sch: Schedule) -> KineticsPlan:
     inside = (win >= 0) & (win < len(edges) - 1)
     inside &= t1 <= edges[np.clip(win + 1, 0, len(edges) - 1)] + 1e-9
     win = np.where(inside, win, -1)
+    if not (win >= 0).any():
+        raise ValueError("kinetics: no frame of the run lies inside an assay window")
     counts = np.bincount(win[win >= 0], minlength=len(edges) - 1)
     full = counts.max()
     win = np.where((win >= 0) & (counts[np.maximum(win, 0)] == full), win, -1)  # cut windows
