@@ -8,7 +8,7 @@ giving each site its own amount (``[sites] amounts_fmol``, 0 = a blank site); th
   is proportional to its analyte (eqs. 5–19), so a site holding ``x`` of the ``[assay]`` amount
   ``A`` emits ``x / A`` of its light, exactly;
 * turns the run's per-site estimates into the dose response and the limit of detection
-  (:func:`dose_response`): the blank's 3σ threshold (IUPAC: mean of the blank + 3 standard
+  (:func:`dose_response_figures`): the blank's 3σ threshold (IUPAC: mean of the blank + 3 standard
   deviations), with σ from the noise model propagated through the DSP, checked against the
   spread the blank sites actually show, and the amount at which the chip's expected response
   crosses it (:func:`interpolate_lod`).
@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from chiptwin.config.budget import amount_key
 from chiptwin.constants import N_A
 from chiptwin.detection import snr
 from chiptwin.kinetics.pulse_train import PulseTrain
@@ -42,8 +43,6 @@ AMOL_PER_FMOL = 1e3
 def assay_amount_fmol(s: Scenario) -> float:
     """The ``[assay]`` amount of the analyte (``dna_fmol``, ``atp_fmol``, ``luciferase_amol``, …)
     in fmol: the amount every site holds unless ``[sites] amounts_fmol`` says otherwise."""
-    from chiptwin.config.budget import amount_key
-
     key = amount_key(s)
     return getattr(s.assay, key) * (1e-3 if key.endswith("_amol") else 1.0)
 
@@ -83,7 +82,9 @@ def scale_source(s: Scenario, source: LightSource) -> LightSource:
 def with_site_amounts(s: Scenario, scene: Scene) -> Scene:
     """A scene :func:`chiptwin.run.prepare` made with one amount at every site, given each site's
     amount: its source scaled (:func:`scale_source`) and its light per window with it (the
-    window integrals are linear in the amplitudes, so this equals preparing the scaled source)."""
+    window integrals are linear in the amplitudes, so this equals preparing the scaled source).
+    A scene whose light already follows the amounts (:func:`chiptwin.stages.light_source`
+    applying :func:`scale_source`) is returned as it is."""
     if site_scale(s) is None or honours_amounts(s, scene):
         return scene
     return replace(scene, source=scale_source(s, scene.source),
@@ -161,8 +162,8 @@ def blank_statistics(measured_e: np.ndarray, expected_e: np.ndarray, sd_model_e:
     return out
 
 
-def dose_response(s: Scenario, sites: list[dict], expected: np.ndarray
-                  ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def dose_response_figures(s: Scenario, sites: list[dict], expected: np.ndarray
+                          ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """``summary['dose_response']`` and its arrays, from the per-site rows of a run.
 
     ``expected`` is each site's signal as the same estimator gives it on the DSP's expected

@@ -68,7 +68,7 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     summary["array"] = array_figures(summary, sites)
     if s.sites.amounts_fmol:
         _require_site_amounts(s, scene)
-        summary["dose_response"], dose_arrays = dose_response.dose_response(
+        summary["dose_response"], dose_arrays = dose_response.dose_response_figures(
             s, sites, expected_site_signal(s, out, idx))
         arrays.update(dose_arrays)
     arrays["site_snr_power"] = np.array([site["snr_power"] for site in sites])
