@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import sparse
 
-from chiptwin import kinetics, limits, optics, photons, pixel
+from chiptwin import dose_response, kinetics, limits, optics, photons, pixel
 from chiptwin.config import Scenario
 from chiptwin.kinetics import pyro
 from chiptwin.kinetics.light_source import LightSource
@@ -50,12 +50,21 @@ def light_source(s: Scenario) -> LightSource:
     only): the multi-enzyme ODE (:mod:`chiptwin.kinetics.cascade`) in the paper's limit set by
     k_t and k_a; with a measured photon yield, the luciferase amount is fitted to give it.
 
+    ``[sites] amounts_fmol`` gives each site its own amount (:func:`chiptwin.dose_response.
+    scale_source`: the closed forms are linear in it).
+
     The ``flux`` kind gives light at the sensor plane instead: photons/s on the diode under each
     site (flux × diode area), with :func:`coupling` passing it straight through.
     """
-    a, n = s.assay, len(site_pixels(s))
+    n = len(site_pixels(s))
     if s.run.fidelity.kinetics == "cascade":
         return _cascade_source(s, n)
+    return dose_response.scale_source(s, _closed_form_source(s, n))
+
+
+def _closed_form_source(s: Scenario, n: int) -> LightSource:
+    """Every site with the ``[assay]`` amount (``[sites] amounts_fmol`` scales it after)."""
+    a = s.assay
     if a.kind == "pyrosequencing":
         _, n_inc = flow_program(s)
         return kinetics.pyrosequencing(
