@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from chiptwin import __version__, fidelity, pixel, stages
+from chiptwin import __version__, fidelity, pixel, shortcuts, stages
 from chiptwin.chip import ChipRun, Recorder, Schedule, simulate_chip
 from chiptwin.config import Scenario, load_scenario
 from chiptwin.config.consistency import check_consistency, scenario_warnings
@@ -162,7 +162,7 @@ def chip_sensor(s: Scenario) -> stages.SensorModel:
 def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Generator,
              rec: Recorder, timer: StageTimer | None = None, progress=None,
              keep_codes: bool = False, sites: np.ndarray | None = None,
-             frames_path: Path | None = None) -> ChainOutput:
+             frames_path: Path | None = None, carry_dark: bool | None = None) -> ChainOutput:
     """Pixel → ADC → memory → DSP through the chip model, for the scene's light.
 
     The light per pixel and what no random draw enters (expected charge, CMS moments) are made a
@@ -175,10 +175,25 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
     ``sites`` (pixel indices) keeps the DSP outputs at those pixels only, and the whole output
     frame where they sum highest; None keeps every pixel's. ``frames_path`` streams every frame
     as read (codes, or the expected CMS difference at the ``expected`` level) to a ``.npy`` file.
+
+    ``carry_dark`` (default: the scenario's ``[run] carry_dark_pixels`` if it has one, else off)
+    takes the shortcut :mod:`chiptwin.shortcuts` names: pixels not kept that see no site light
+    above a tenth of their noise are not drawn but carried at the ``expected`` level; the sites'
+    outputs are then equal in distribution to the full path's, not bit for bit.
     """
     timer = timer or StageTimer()
-    reader = _FrameReader(s, scene, photons_level, rng, timer, frames_path)
     keep = None if sites is None else np.unique(np.asarray(sites, dtype=np.int64))
+    if carry_dark is None:
+        carry_dark = bool(getattr(s.run, shortcuts.CARRY_DARK_PIXELS_OPTION, False))
+    split = None
+    saving = frames_path is not None
+    if carry_dark and shortcuts.applies(s, photons_level, keep, keep_codes, saving):
+        with timer("pixel"):
+            split = shortcuts.split_dark(s, scene, keep)
+    full = scene
+    if split is not None:  # the drawn pixels only, as a scene of their own
+        scene, sites, keep = split.scene, split.local(np.asarray(sites)), split.local(keep)
+    reader = _FrameReader(s, scene, photons_level, rng, timer, frames_path)
     pipeline = _TimedPipeline(_dsp_level(s, keep_codes), timer, keep, sites,
                               scene.sensor.e_per_lsb)
     inner = ("pixel", "adc", "dsp")
@@ -198,6 +213,9 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
     if reader.events is not None:
         events = reader.events
         out.saturation_s = np.array(events.saturation_s).reshape(-1, len(events.pixels))
+    if split is not None:
+        with timer("pixel"):
+            out = shortcuts.restore(s, full, split, out, split.drawn[keep], rng)
     return out
 
 
