@@ -1,0 +1,147 @@
+"""Equivalence tests of the "model only what the scene needs" shortcuts (:mod:`chiptwin.shortcuts`).
+
+Carried dark pixels: on a 32 × 32 chip with 64 sites at a 4-pixel pitch (the geometry of
+``pyro_array_256``, smaller), the run that draws only the kept, lit and clip-prone pixels must give
+
+* exactly the full path's moments (mean and variance of every kept output to 1e-12, the dark
+  reference's variance at every pixel), chip trace, memory history and full-well count;
+* the full path's law at the sites (other draws: Monte Carlo over seeds, one block per seed so
+  the samples are independent; mean of the standardised deviation within 4 standard errors of 0,
+  its variance within 10 % of 1 — the standard error of a variance of 2,560 samples is 2.8 % —,
+  and KS p > 1e-3 between the two paths);
+* at the carried pixels of the peak frame, the expected level's mean and variance (same bounds);
+* the full path bit for bit wherever it does not apply.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from chiptwin import shortcuts, stages
+from chiptwin.config import load_scenario
+from chiptwin.run import Recorder, prepare, simulate, stage_rng
+
+GRID = [f"[{r}, {c}]" for r in range(1, 32, 4) for c in range(1, 32, 4)]
+WIDE = ["chip.rows=32", "chip.cols=32", "chip.memory.capacity_bits=2000000", "assay.dna_fmol=0.01",
+        f"sites.at_pixels=[{', '.join(GRID)}]"]
+SEEDS = range(40)
+BLOCK = 20
+
+
+@pytest.fixture(scope="module")
+def wide(tmp_path_factory):
+    from tests.conftest import SMALL
+
+    path = tmp_path_factory.mktemp("wide") / "small.toml"
+    path.write_text(SMALL)
+    s = load_scenario(path, WIDE)
+    return s, prepare(s), stages.site_pixel_indices(s)
+
+
+def _run(wide, seed: int, carry: bool, level: str = "binned", **kw):
+    s, scene, idx = wide
+    rec = Recorder()
+    out = simulate(s, scene, level, stage_rng(seed, "pixel"), rec, sites=kw.pop("sites", idx),
+                   carry_dark=carry, **kw)
+    return out, rec
+
+
+def test_split_carries_only_dark_clip_safe_pixels_and_keeps_the_sites(wide):
+    """Slow obvious reference: the largest light of each pixel over every frame, frame by frame."""
+    s, scene, idx = wide
+    split = shortcuts.split_dark(s, scene, np.unique(idx))
+    assert split is not None and len(split.drawn) < scene.n_pixels // 2
+    assert np.isin(idx, split.drawn).all()
+    assert np.array_equal(np.sort(np.concatenate([split.drawn, split.carried])),
+                          np.arange(scene.n_pixels))
+    sen = scene.sensor
+    light = np.max([sen.qe * sen.gain_map * scene.photons_block(k, k + 1)[0]
+                    for k in range(scene.sch.n_frames)], axis=0)
+    dark = sen.dark_e_per_s * s.chip.timing.t_int_s
+    noise = np.sqrt(dark + 2 * sen.read_noise_e**2 / sen.cms_samples)  # true CDS
+    assert (light[split.carried] <= shortcuts.DARK_LIGHT_NOISE_FRACTION * noise[
+        split.carried]).all()
+
+
+def test_clip_safe_refuses_a_pedestal_at_the_adc_floor(wide):
+    s, scene, _ = wide
+    lam = np.array([10.0, 1e3])
+    assert shortcuts.clip_safe(lam, scene.sensor, s.chip.adc).all()
+    low = type(scene.sensor)(**{**scene.sensor.__dict__, "pedestal_V": s.chip.adc.v_min_V})
+    assert not shortcuts.clip_safe(lam, low, s.chip.adc).any()
+    full = type(scene.sensor)(**{**scene.sensor.__dict__, "full_well_e": 1e3})
+    assert list(shortcuts.clip_safe(lam, full, s.chip.adc)) == [True, False]
+
+
+def test_carried_run_has_the_full_paths_moments_trace_and_flags(wide):
+    full, rec_full = _run(wide, 0, False)
+    cut, rec_cut = _run(wide, 0, True)
+    assert np.array_equal(full.pixels, cut.pixels)
+    np.testing.assert_allclose(cut.mean_e, full.mean_e, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(cut.var_e2, full.var_e2, rtol=1e-12)
+    np.testing.assert_allclose(cut.dark_var_e2, full.dark_var_e2, rtol=1e-12)
+    np.testing.assert_array_equal(cut.block_t_s, full.block_t_s)
+    assert rec_cut.events == rec_full.events
+    assert cut.chip.occupancy == full.chip.occupancy and cut.chip.dropped == full.chip.dropped
+    assert (cut.full_well_pixel_frames, cut.adc_clipped_samples) == (
+        full.full_well_pixel_frames, full.adc_clipped_samples)
+    assert cut.peak_frame_e.shape == full.peak_frame_e.shape
+    assert not np.array_equal(cut.value_e, full.value_e)  # other draws: a statistical equality
+
+
+def test_sites_have_the_full_paths_law(wide):
+    s, _, idx = wide
+    z = {}
+    for carry in (False, True):
+        devs = []
+        for seed in SEEDS:
+            out, _ = _run(wide, seed, carry)
+            cols = out.columns(idx)
+            sd = np.sqrt(out.var_e2[BLOCK, cols] + out.dark_var_e2[idx])
+            devs.append((out.value_e[BLOCK, cols] - out.mean_e[BLOCK, cols]) / sd)
+        z[carry] = np.concatenate(devs)
+        d = z[carry]
+        assert abs(d.mean()) < 4 * d.std() / np.sqrt(d.size)
+        assert d.var() == pytest.approx(1.0, rel=0.10)
+    assert stats.ks_2samp(z[False], z[True]).pvalue > 1e-3
+
+
+def test_carried_pixels_of_the_peak_frame_have_the_expected_law(wide):
+    s, scene, idx = wide
+    split = shortcuts.split_dark(s, scene, np.unique(idx))
+    expected, _ = _run(wide, 0, False, level="expected", sites=None)
+    c = split.carried
+    devs = []
+    for seed in range(4):
+        out, _ = _run(wide, seed, True)
+        b = out.peak_block
+        sd = np.sqrt(expected.var_e2[b, c] + expected.dark_var_e2[c])
+        devs.append((out.peak_frame_e[c] - expected.mean_e[b, c]) / sd)
+    d = np.concatenate(devs)
+    assert abs(d.mean()) < 4 * d.std() / np.sqrt(d.size)
+    assert d.var() == pytest.approx(1.0, rel=0.10)
+
+
+@pytest.mark.parametrize("case", ["no_sites", "report_error", "expected", "off"])
+def test_where_it_does_not_apply_the_run_is_the_full_path_bit_for_bit(wide, case):
+    from dataclasses import replace
+
+    s, scene, idx = wide
+    kw: dict = {}
+    carry, level, s2 = True, "binned", s
+    if case == "no_sites":
+        kw["sites"] = None
+    elif case == "report_error":
+        s2 = replace(s, chip=replace(s.chip, dsp=replace(s.chip.dsp, report_error=True)))
+    elif case == "expected":
+        level = "expected"
+    else:
+        carry = None  # default: off (the scenario has no carry_dark_pixels)
+    a = simulate(s2, scene, level, stage_rng(3, "pixel"), Recorder(),
+                 sites=kw.get("sites", idx), carry_dark=carry)
+    b = simulate(s2, scene, level, stage_rng(3, "pixel"), Recorder(),
+                 sites=kw.get("sites", idx), carry_dark=False)
+    np.testing.assert_array_equal(a.value_e, b.value_e)
+    np.testing.assert_array_equal(a.dark_var_e2, b.dark_var_e2)
