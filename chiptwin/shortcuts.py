@@ -74,6 +74,7 @@ class Split:
     drawn: np.ndarray
     carried: np.ndarray
     scene: Scene  # the scene of the drawn pixels only
+    carried_scene: Scene  # and of the carried ones
 
     def local(self, pixels: np.ndarray) -> np.ndarray:
         """Positions in ``drawn`` of the (drawn) pixels ``pixels``."""
@@ -125,7 +126,16 @@ def split_dark(s, scene: Scene, keep: np.ndarray) -> Split | None:
     A pixel is carried when it is not in ``keep``, is dark (:func:`dark_mask`) and clip-safe
     (:func:`clip_safe`). The light per pixel is bounded by ``coupling @ max_t(site_photons)``
     (the coupling is non-negative), which is at least its largest value over the frames.
+    Kept with the scene (its memo), so the replicates of a study share the split and the
+    drawn scene's own memo.
     """
+    key = ("split_dark", s.chip.timing.t_int_s, s.chip.adc, np.asarray(keep).tobytes())
+    if key not in scene._memo:
+        scene._memo[key] = _split_dark(s, scene, keep)
+    return scene._memo[key]
+
+
+def _split_dark(s, scene: Scene, keep: np.ndarray) -> Split | None:
     sensor = scene.sensor
     most = scene.site_photons.max(axis=1) if scene.site_photons.size else np.zeros(
         scene.site_photons.shape[0])
@@ -137,8 +147,8 @@ def split_dark(s, scene: Scene, keep: np.ndarray) -> Split | None:
     carried[keep] = False
     if not carried.any():
         return None
-    drawn = np.flatnonzero(~carried)
-    return Split(drawn, np.flatnonzero(carried), sub_scene(scene, drawn))
+    drawn, rest = np.flatnonzero(~carried), np.flatnonzero(carried)
+    return Split(drawn, rest, sub_scene(scene, drawn), sub_scene(scene, rest))
 
 
 def sub_scene(scene: Scene, pixels: np.ndarray) -> Scene:
@@ -155,11 +165,17 @@ def _carried_rng(rng: np.random.Generator) -> np.random.Generator:
 
 
 def _expected_frames(s, scene: Scene, frames: list[int]) -> list[Frame]:
-    """The ``expected`` level's frames ``frames`` of ``scene`` (moments only)."""
-    out = []
-    for k in frames:
-        m = pixel_frames(scene, s.chip.timing.t_int_s, s.chip.adc.gain_error, k, k + 1)
-        out.append(Frame(codes=None, mean=m.cds_mean_lsb[0], var=m.cds_var_lsb2[0]))
+    """The ``expected`` level's frames ``frames`` (ascending) of ``scene``: moments only, one
+    :func:`~chiptwin.scene.pixel_frames` call per run of consecutive frames."""
+    out: list[Frame] = []
+    breaks = np.flatnonzero(np.diff(frames) != 1) + 1
+    for run in np.split(np.asarray(frames, dtype=np.int64), breaks):
+        if not run.size:
+            continue
+        m = pixel_frames(scene, s.chip.timing.t_int_s, s.chip.adc.gain_error,
+                         int(run[0]), int(run[-1]) + 1)
+        out += [Frame(codes=None, mean=m.cds_mean_lsb[i], var=m.cds_var_lsb2[i])
+                for i in range(len(run))]
     return out
 
 
@@ -175,7 +191,7 @@ def restore(s, scene: Scene, split: Split, out: ChainOutput, keep: np.ndarray,
     sch, chip = scene.sch, out.chip
     dropped = set(chip.dropped)
     dark_frames = [k for k in range(sch.n_frames) if k not in dropped][:sch.dark_frames]
-    carried_scene = sub_scene(scene, split.carried)
+    carried_scene = split.carried_scene
     moments = Pipeline("float")
     moments.dark(_expected_frames(s, carried_scene, dark_frames))
     e = scene.sensor.e_per_lsb

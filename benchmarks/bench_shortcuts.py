@@ -1,0 +1,103 @@
+"""Speed and error of the "model only what the scene needs" shortcuts (:mod:`chiptwin.shortcuts`).
+
+For each bundled scenario where a shortcut applies, the full path and the shortcut run side by
+side on one prepared scene, warm (one untimed run of each first, so numba's cache and the
+scene's memo are loaded), in the same process: the median wall time of the chip model and the
+detection (``simulate`` + ``results.detect``, what :func:`chiptwin.run.run_prepared` times), the
+ratio, and the error the shortcut actually incurs on the headline figures. The carried-dark-pixels
+shortcut draws other numbers for the sites (an equality in law), so its error on a figure is shown
+beside the seed-to-seed spread of the full path (full at seed s against full at seed s + 1), each
+averaged over ``--seeds`` pairs: an error of that size is the Monte Carlo noise of one run, not a
+bias.
+
+    python benchmarks/bench_shortcuts.py                      # every scenario where it applies
+    python benchmarks/bench_shortcuts.py pyro_1fmol --seeds 5
+
+Figures: ``signal`` median over sites of |Δ signal_e| / noise_e (in units of the site's noise);
+``noise`` max relative |Δ noise_e| (moments: must be ~0); ``snr`` relative Δ of the median power
+SNR; ``called`` Δ of the fraction of sites called right (pyrosequencing) or detected.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+from chiptwin import shortcuts, stages
+from chiptwin.config import load_scenario
+from chiptwin.results import detect
+from chiptwin.run import Recorder, prepare, simulate, stage_rng
+
+ROOT = Path(__file__).resolve().parents[1] / "scenarios"
+ALL = ("pyro_1fmol", "pyro_array_256", "pyro_paper_yield_fast", "ccd_100fmol", "atp_glow",
+       "atp_dose_response", "luciferase_label", "pyro_paper_yield", "crosstalk_microarray",
+       "ccd_two_wells", "snr10_requirement")
+
+
+def _once(s, scene, seed: int, carry: bool) -> tuple[float, dict]:
+    t0 = time.perf_counter()
+    out = simulate(s, scene, s.run.fidelity.photons, stage_rng(seed, "pixel"), Recorder(),
+                   sites=stages.site_pixel_indices(s), carry_dark=carry)
+    summary, _ = detect(s, scene, out)
+    return time.perf_counter() - t0, summary
+
+
+def _figures(a: dict, b: dict) -> dict[str, float]:
+    sa, sb = a["sites"], b["sites"]
+    noise = np.array([x["noise_e"] for x in sa])
+    sig = np.abs(np.array([x["signal_e"] for x in sa]) - [x["signal_e"] for x in sb])
+    called = "fraction_called_right" if "fraction_called_right" in a["array"] else (
+        "fraction_detected")
+    snr_a, snr_b = (statistics.median(x["snr_power"] for x in s) for s in (sa, sb))
+    return {
+        "signal": float(np.median(sig / noise)),
+        "noise": float(np.max(np.abs(noise - [x["noise_e"] for x in sb]) / noise)),
+        "snr": abs(snr_b - snr_a) / abs(snr_a) if snr_a else 0.0,
+        "called": abs(b["array"][called] - a["array"][called]),
+    }
+
+
+def bench(name: str, seeds: int) -> None:
+    s = load_scenario(ROOT / f"{name}.toml")
+    scene = prepare(s)
+    idx = np.unique(stages.site_pixel_indices(s))
+    if not shortcuts.applies(s, s.run.fidelity.photons, idx, False, False):
+        print(f"{name:24s} carried dark pixels: does not apply "
+              f"(photons={s.run.fidelity.photons}, program={list(s.chip.dsp.program)})")
+        return
+    split = shortcuts.split_dark(s, scene, idx)
+    if split is None:
+        print(f"{name:24s} carried dark pixels: no pixel to carry ({scene.n_pixels} pixels)")
+        return
+    seed = s.scenario.seed
+    for carry in (False, True):  # warm-up: numba cache, scene memo
+        _once(s, scene, seed, carry)
+    full = [_once(s, scene, seed + i, False) for i in range(seeds + 1)]
+    cut = [_once(s, scene, seed + i, True) for i in range(seeds)]
+    t_full = statistics.median(t for t, _ in full)
+    t_cut = statistics.median(t for t, _ in cut)
+    err = [_figures(full[i][1], cut[i][1]) for i in range(seeds)]
+    spread = [_figures(full[i][1], full[i + 1][1]) for i in range(seeds)]
+    print(f"{name:24s} drawn {len(split.drawn):6d}/{scene.n_pixels:<6d} full {t_full:8.3f} s  "
+          f"carried {t_cut:7.3f} s  ratio {t_full / t_cut:6.2f}x")
+    for label, rows in (("error ", err), ("seed±1", spread)):
+        means = {k: statistics.fmean(r[k] for r in rows) for k in rows[0]}
+        print(f"    {label}  " + "  ".join(f"{k} {v:.3g}" for k, v in means.items()))
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("scenarios", nargs="*", default=list(ALL))
+    p.add_argument("--seeds", type=int, default=3,
+                   help="pairs (full, carried) at seeds s … s + N − 1; times are their medians")
+    args = p.parse_args()
+    for name in args.scenarios:
+        bench(name, args.seeds)
+
+
+if __name__ == "__main__":
+    main()
