@@ -145,3 +145,38 @@ def test_where_it_does_not_apply_the_run_is_the_full_path_bit_for_bit(wide, case
                  sites=kw.get("sites", idx), carry_dark=False)
     np.testing.assert_array_equal(a.value_e, b.value_e)
     np.testing.assert_array_equal(a.dark_var_e2, b.dark_var_e2)
+
+
+# --- Frame steps not recorded (Recorder(frame_steps=False)) -------------------------------------
+
+QUICK = ("pyro_1fmol", "ccd_100fmol", "atp_glow", "atp_dose_response", "luciferase_label",
+         "crosstalk_microarray", "ccd_two_wells", "snr10_requirement", "pyro_paper_yield")
+
+
+@pytest.mark.parametrize("name", QUICK)
+def test_compact_trace_is_the_full_trace_without_the_frame_steps(name):
+    """Same chip outputs, memory history, drops, DSP time and end, and the same events in the same
+    order at the same ticks once the full trace's frame steps are taken out (at the expected level
+    where the DSP allows: the chip model does not depend on the photon level)."""
+    from chiptwin.chip.trace import FRAME_STEPS
+    from tests.conftest import SCENARIOS
+
+    fast = [] if name in ("crosstalk_microarray", "ccd_two_wells") else [
+        "run.fidelity.photons=expected"]  # those two run a fixed DSP: codes needed
+    s = load_scenario(SCENARIOS / f"{name}.toml", fast)
+    scene = prepare(s)
+    runs = []
+    for steps in (True, False):
+        rec = Recorder(frame_steps=steps)
+        out = simulate(s, scene, s.run.fidelity.photons, stage_rng(0, "pixel"), rec)
+        runs.append((out, rec))
+    (full, rec_full), (cut, rec_cut) = runs
+    kept = [e for e in rec_full.events if (e[1], e[2]) not in FRAME_STEPS]
+    assert rec_cut.events == kept and len(kept) < len(rec_full.events)
+    a, b = full.chip, cut.chip
+    assert (a.occupancy, a.dropped, a.dsp_busy_ns, a.end_ns, a.last_write_ns,
+            a.unprocessed_frames) == (b.occupancy, b.dropped, b.dsp_busy_ns, b.end_ns,
+                                      b.last_write_ns, b.unprocessed_frames)
+    assert [ks for ks, _ in a.outputs] == [ks for ks, _ in b.outputs]
+    np.testing.assert_array_equal(full.value_e, cut.value_e)
+    assert not rec_cut.to_arrays()["trace_frame_steps"]

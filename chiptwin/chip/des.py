@@ -176,23 +176,42 @@ def simulate_chip(
 
 
 def _sensor(env, sch: Schedule, read_frame, memory: FrameMemory, rec, run, progress):
-    """Pixel array and ADCs: reset, reset samples, integrate, signal samples, write."""
+    """Pixel array and ADCs: reset, reset samples, integrate, signal samples, write.
+
+    A recorder without ``frame_steps`` (:data:`chiptwin.chip.trace.FRAME_STEPS`) gets the same
+    waits merged: one from a frame's write to the next frame's signal conversions.
+    """
     conv = sch.cms_samples * sch.t_conv_ns
+    steps = getattr(rec, "frame_steps", True)
+    idle = 0  # the previous frame's idle time, merged into this frame's first wait
     for k in range(sch.n_frames):
-        rec.record(env.now, "pixel", "reset", k)
-        yield env.timeout(sch.t_reset_ns)
-        rec.record(env.now, "adc", "convert_reset", sch.cms_samples)
-        yield env.timeout(conv)
-        rec.record(env.now, "pixel", "integrate_start", k)
-        yield env.timeout(sch.t_int_ns)
-        rec.record(env.now, "adc", "convert_signal", sch.cms_samples)
+        if steps:
+            yield from _frame_steps(env, sch, rec, k, conv)
+        else:
+            yield env.timeout(idle + sch.t_reset_ns + conv + sch.t_int_ns)
         yield env.timeout(conv)
         rec.record(env.now, "adc", "frame_ready", k)
         if memory.write(k, read_frame(k)):
             run.last_write_ns = int(env.now)
         if progress is not None:
             progress(k + 1, sch.n_frames)
-        yield env.timeout(sch.frame_period_ns - sch.busy_ns)
+        if steps:
+            yield env.timeout(sch.frame_period_ns - sch.busy_ns)
+        else:
+            idle = sch.frame_period_ns - sch.busy_ns
+    if not steps and sch.n_frames:
+        yield env.timeout(idle)  # the last frame's idle time: the run ends when it did
+
+
+def _frame_steps(env, sch: Schedule, rec, k: int, conv: int):
+    """Frame ``k`` from its reset to its signal conversions, each step recorded."""
+    rec.record(env.now, "pixel", "reset", k)
+    yield env.timeout(sch.t_reset_ns)
+    rec.record(env.now, "adc", "convert_reset", sch.cms_samples)
+    yield env.timeout(conv)
+    rec.record(env.now, "pixel", "integrate_start", k)
+    yield env.timeout(sch.t_int_ns)
+    rec.record(env.now, "adc", "convert_signal", sch.cms_samples)
 
 
 def _dsp(env, sch: Schedule, dsp: DspEngine, memory: FrameMemory, rec, run):
