@@ -1,4 +1,5 @@
-"""Speed and error of the "model only what the scene needs" shortcuts (:mod:`chiptwin.shortcuts`).
+"""Speed and error of the "model only what the scene needs" shortcuts (:mod:`chiptwin.shortcuts`,
+and the trace without frame steps, :class:`chiptwin.chip.trace.Recorder`).
 
 For each bundled scenario where a shortcut applies, the full path and the shortcut run side by
 side on one prepared scene, warm (one untimed run of each first, so numba's cache and the
@@ -12,6 +13,9 @@ bias.
 
     python benchmarks/bench_shortcuts.py                      # every scenario where it applies
     python benchmarks/bench_shortcuts.py pyro_1fmol --seeds 5
+
+The trace without frame steps changes no number: it is timed on the same seed (simulate alone,
+the chip model's share) and its outputs are checked identical.
 
 Figures: ``signal`` median over sites of |Δ signal_e| / noise_e (in units of the site's noise);
 ``noise`` max relative |Δ noise_e| (moments: must be ~0); ``snr`` relative Δ of the median power
@@ -89,14 +93,44 @@ def bench(name: str, seeds: int) -> None:
         print(f"    {label}  " + "  ".join(f"{k} {v:.3g}" for k, v in means.items()))
 
 
+def _chip(s, scene, steps: bool):
+    t0 = time.perf_counter()
+    rec = Recorder(frame_steps=steps)
+    out = simulate(s, scene, s.run.fidelity.photons, stage_rng(s.scenario.seed, "pixel"), rec,
+                   sites=stages.site_pixel_indices(s))
+    return time.perf_counter() - t0, out, rec
+
+
+def bench_steps(name: str, seeds: int) -> None:
+    """The trace without frame steps: the same run (same seed), full trace against compact."""
+    s = load_scenario(ROOT / f"{name}.toml")
+    scene = prepare(s)
+    for steps in (True, False):
+        _chip(s, scene, steps)
+    full = [_chip(s, scene, True) for _ in range(seeds)]
+    cut = [_chip(s, scene, False) for _ in range(seeds)]
+    t_full = statistics.median(r[0] for r in full)
+    t_cut = statistics.median(r[0] for r in cut)
+    (_, a, rec_a), (_, b, rec_b) = full[0], cut[0]
+    same = (a.chip.occupancy == b.chip.occupancy and a.chip.dropped == b.chip.dropped
+            and a.chip.end_ns == b.chip.end_ns and np.array_equal(a.value_e, b.value_e))
+    print(f"{name:24s} frame steps: events {len(rec_a):8d} -> {len(rec_b):8d}  "
+          f"full {t_full:8.3f} s  compact {t_cut:7.3f} s  ratio {t_full / t_cut:5.2f}x  "
+          f"outputs {'identical' if same else 'DIFFER'}")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("scenarios", nargs="*", default=list(ALL))
     p.add_argument("--seeds", type=int, default=3,
                    help="pairs (full, carried) at seeds s … s + N − 1; times are their medians")
+    p.add_argument("--only", choices=("carried", "steps"), help="one shortcut only")
     args = p.parse_args()
     for name in args.scenarios:
-        bench(name, args.seeds)
+        if args.only != "steps":
+            bench(name, args.seeds)
+        if args.only != "carried":
+            bench_steps(name, args.seeds)
 
 
 if __name__ == "__main__":
