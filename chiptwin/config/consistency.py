@@ -32,10 +32,11 @@ BUILT_LEVELS: dict[str, tuple[str, ...]] = {
 
 def check_consistency(s: Scenario) -> None:
     """Run every cross-field rule on a built scenario."""
-    # _dsp_program before _timing: the schedule is derived from the program's stages
-    for rule in (_name, _fidelity, _assay, _cascade, _sites, _optics, _dsp_program, _timing,
-                 _adc_range,
-                 _memory, _duration, _matched_filter, check_budget, _site_amounts):
+    # _dsp_formats, then _dsp_program, before _timing: the schedule is derived from the
+    # program's stages, and their costs from the register formats
+    for rule in (_name, _fidelity, _assay, _cascade, _sites, _optics, _dsp_formats, _dsp_program,
+                 _timing, _adc_range, _memory, _duration, _matched_filter, check_budget,
+                 _site_amounts):
         rule(s)
 
 
@@ -350,6 +351,32 @@ def scenario_warnings(s: Scenario) -> list[str]:
     return warnings
 
 
+def _dsp_formats(s: Scenario) -> None:
+    """Every register the run derives from ``[chip.dsp]`` fits the DSP's 64 bits.
+
+    The chain's formats (ADC bits, M, K, N, ``acc_bits``) are derived at the fixed and RTL levels
+    (and wherever the level may become one, ``auto``); a program beyond today's chain derives
+    its stages' formats at every level (the schedule counts their memory). A count whose
+    registers would be wider is refused here by its own key, before anything derives them.
+    """
+    from chiptwin.dsp import program as prog
+    from chiptwin.dsp.chain import FormatLimit
+    from chiptwin.dsp.pipeline import chain_for
+
+    program = s.chip.dsp.program
+    if prog.order_problem(program) is not None:
+        return  # _dsp_program refuses the list itself
+    if s.dsp_level == "float" and prog.is_default(program):
+        return
+    try:
+        chain_for(s.chip)
+        if not prog.is_default(program):
+            prog.program_formats(s.chip)
+    except FormatLimit as err:
+        key = "chip.adc.bits" if err.key == "adc_bits" else f"chip.dsp.{err.key}"
+        _fail(s, key, err.value, err.allowed)
+
+
 def _dsp_program(s: Scenario) -> None:
     """``[chip.dsp] program``: known stages in their order, each stage's needs (assay, optics,
     level, geometry, register widths), and the frame memory the program holds."""
@@ -369,9 +396,6 @@ def _dsp_program(s: Scenario) -> None:
               f"{', '.join(prog.DECAY_KEYS)})")
     if "wiener" in program:
         _program_wiener(s)
-    if "bin_rows" in program and c.rows % prog.bin_factor(c):
-        _fail(s, "chip.dsp.bin_factor", c.dsp.bin_factor,
-              f"stage 'bin_rows' sums bin_factor rows: must divide chip.rows = {c.rows}")
     if s.dsp_level == "rtl":
         for stage in program:
             if stage not in prog.RTL_STAGES:

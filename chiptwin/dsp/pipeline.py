@@ -9,14 +9,13 @@ noise. The dark reference's own noise is common to every output and kept apart
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from chiptwin.dsp import reference
-from chiptwin.dsp.chain import ChainConfig, chain_configs
-from chiptwin.dsp.fmt import Fmt
+from chiptwin.dsp.chain import ChainConfig, chain_configs, with_accumulator
 from chiptwin.dsp.frame_ops import average_frames_fixed, cms_fixed, subtract_background_fixed
 from chiptwin.dsp.registers import FixedResult
 
@@ -62,15 +61,15 @@ def chain_for(chip: Chip) -> ChainConfig:
     """The fixed-point chain of a scenario's chip: formats from the ADC bits and M, K, N.
 
     ``[chip.dsp] acc_bits`` (if not 0) narrows the N-frame accumulator, with ``acc_overflow``.
+    Raises :class:`~chiptwin.dsp.chain.FormatLimit` naming the count whose registers would pass
+    64 bits.
     """
     d = chip.dsp
     chain = chain_configs(chip.adc.bits, d.cms_samples, d.n_dark_frames, d.average_frames,
                           rounding=d.rounding, overflow=d.overflow)
     if not d.acc_bits:
         return chain
-    avg = chain.average
-    acc = Fmt(True, d.acc_bits, avg.in_fmt.frac_bits)
-    return replace(chain, average=replace(avg, acc_fmt=acc, acc_overflow=d.acc_overflow))
+    return with_accumulator(chain, d.acc_bits, d.acc_overflow)
 
 
 @dataclass

@@ -41,13 +41,13 @@ import math
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
-from chiptwin.dsp.chain import ChainConfig
+from chiptwin.dsp.chain import MAX_REGISTER_BITS, ChainConfig, FormatLimit
 from chiptwin.dsp.filters import FirConfig
 from chiptwin.dsp.fmt import Fmt, mul_fmt, sum_fmt
 from chiptwin.dsp.frame_ops import BinningConfig
 
 if TYPE_CHECKING:
-    from chiptwin.config.schema import Chip
+    from chiptwin.config.schema import Chip, Dsp
 
 #: Every stage a program may name, in the only order they may come.
 STAGES = ("cms", "dark", "background", "average", "kinetics", "bin_rows", "fir8", "wiener")
@@ -149,7 +149,11 @@ class ProgramFormats:
 
 
 def program_formats(chip: Chip) -> ProgramFormats:
-    """Formats of ``chip.dsp.program``'s stages (raises ValueError for impossible widths)."""
+    """Formats of ``chip.dsp.program``'s stages.
+
+    Raises :class:`~chiptwin.dsp.chain.FormatLimit` (a ValueError) naming the ``[chip.dsp]``
+    key whose registers would be wider than 64 bits.
+    """
     from chiptwin.dsp.pipeline import chain_for
 
     d, program = chip.dsp, chip.dsp.program
@@ -158,27 +162,86 @@ def program_formats(chip: Chip) -> ProgramFormats:
         else chain_for(chip)
     k_acc = k_out = None
     if kinetics:
-        x = front.average.out_fmt
-        product = mul_fmt(x, KINETICS_COEF)
-        if d.kinetics_acc_bits < product.word_bits:
-            raise ValueError(f"chip.dsp.kinetics_acc_bits = {d.kinetics_acc_bits} cannot hold "
-                             f"one {product.word_bits}-bit product of a frame and a weight")
-        k_acc = Fmt(True, d.kinetics_acc_bits, product.frac_bits)
-        k_out = Fmt(True, x.word_bits + 1, x.frac_bits)
+        k_acc, k_out = _kinetics_formats(front.average.out_fmt, d.kinetics_acc_bits)
     fmt = k_out or front.average.out_fmt
     binning = fir = None
     if "bin_rows" in program:
-        binning = BinningConfig(rows=chip.rows, cols=chip.cols, factor=bin_factor(chip),
-                                in_fmt=fmt, rounding=d.rounding, overflow=d.overflow)
+        binning = _binning(chip, fmt)
         fmt = binning.out_fmt
     if "fir8" in program:
-        product = mul_fmt(fmt, Fmt(True, 16, 15))
-        fir = FirConfig(taps=FIR_TAPS, cutoff=d.fir_cutoff, in_fmt=fmt,
-                        acc_fmt=sum_fmt(product, FIR_TAPS), out_fmt=fmt, rounding=d.rounding,
-                        overflow=d.overflow)
+        fir = _fir(d, fmt)
         fmt = fir.out_fmt
+    if "wiener" in program:
+        _check_wiener(chip, fmt)
     return ProgramFormats(front, k_acc, k_out, binning, fir,
                           fmt if "wiener" in program else None)
+
+
+def _kinetics_formats(x: Fmt, acc_bits: int) -> tuple[Fmt, Fmt]:
+    """The kinetics accumulator (``kinetics_acc_bits``) and output for frames of ``x``."""
+    product_bits = x.word_bits + KINETICS_COEF.word_bits
+    if product_bits > MAX_REGISTER_BITS:
+        raise FormatLimit(
+            "program", "kinetics",
+            f"stage 'kinetics' multiplies frames of {x.q} ({x.word_bits} bits: chip.adc.bits, "
+            f"cms_samples and n_dark_frames set it) by {KINETICS_COEF.word_bits}-bit weights, a "
+            f"{product_bits}-bit product: the DSP's multiplier is at most {MAX_REGISTER_BITS} bits")
+    product = mul_fmt(x, KINETICS_COEF)
+    if acc_bits < product.word_bits:
+        raise FormatLimit(
+            "kinetics_acc_bits", acc_bits,
+            f"cannot hold one {product.word_bits}-bit product of a frame ({x.q}) and a weight: "
+            f"must be ≥ {product.word_bits}")
+    return Fmt(True, acc_bits, product.frac_bits), Fmt(True, x.word_bits + 1, x.frac_bits)
+
+
+def _binning(chip: Chip, fmt: Fmt) -> BinningConfig:
+    d, factor = chip.dsp, bin_factor(chip)
+    if chip.rows % factor:
+        raise FormatLimit("bin_factor", d.bin_factor,
+                          f"stage 'bin_rows' sums bin_factor rows: must divide chip.rows = "
+                          f"{chip.rows}")
+    grow = (factor - 1).bit_length()
+    if fmt.word_bits + grow > MAX_REGISTER_BITS:
+        raise FormatLimit(
+            "bin_factor", d.bin_factor,
+            f"stage 'bin_rows' sums {factor} rows of {fmt.q} ({fmt.word_bits} bits), "
+            f"{fmt.word_bits + grow} bits, more than the DSP's {MAX_REGISTER_BITS}: at most "
+            f"{2 ** (MAX_REGISTER_BITS - fmt.word_bits)} rows fit")
+    return BinningConfig(rows=chip.rows, cols=chip.cols, factor=factor, in_fmt=fmt,
+                         rounding=d.rounding, overflow=d.overflow)
+
+
+def _fir(d: Dsp, fmt: Fmt) -> FirConfig:
+    coef = Fmt(True, 16, 15)
+    need = fmt.word_bits + coef.word_bits + (FIR_TAPS - 1).bit_length()
+    if need > MAX_REGISTER_BITS:
+        raise FormatLimit(
+            "program", "fir8",
+            f"stage 'fir8' sums {FIR_TAPS} products of its {fmt.word_bits}-bit input ({fmt.q}) "
+            f"and {coef.word_bits}-bit taps: a {need}-bit accumulator, more than the DSP's "
+            f"{MAX_REGISTER_BITS} bits")
+    product = mul_fmt(fmt, coef)
+    return FirConfig(taps=FIR_TAPS, cutoff=d.fir_cutoff, in_fmt=fmt,
+                     acc_fmt=sum_fmt(product, FIR_TAPS), out_fmt=fmt, rounding=d.rounding,
+                     overflow=d.overflow)
+
+
+def _check_wiener(chip: Chip, fmt: Fmt) -> None:
+    """The equalizer's accumulator (input × coefficient, summed over its n inputs) fits."""
+    n = math.prod(grid_shape(chip))
+    grow = (n - 1).bit_length()
+    coef_bits = chip.dsp.wiener_coef_bits
+    if fmt.word_bits + coef_bits + grow <= MAX_REGISTER_BITS:
+        return
+    top = MAX_REGISTER_BITS - fmt.word_bits - grow
+    fix = f"must be ≤ {top}" if top >= 4 else (
+        "no coefficient width fits (bin the rows first, or fewer bits upstream)")
+    raise FormatLimit(
+        "wiener_coef_bits", coef_bits,
+        f"stage 'wiener' sums {n} products of its {fmt.word_bits}-bit input ({fmt.q}) and the "
+        f"coefficients: {fmt.word_bits} + {coef_bits} + {grow} bits is more than the DSP's "
+        f"{MAX_REGISTER_BITS}; {fix}")
 
 
 def grid_shape(chip: Chip) -> tuple[int, int]:

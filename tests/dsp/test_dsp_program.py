@@ -55,7 +55,8 @@ MALFORMED = [
     ([_prog(KINETICS), "luciferase_label.toml"], "stage 'kinetics' weights frames"),
     ([_prog('["cms","dark","background","average","bin_rows"]'), "chip.dsp.bin_factor=3"],
      "chip.dsp.bin_factor = 3"),
-    ([_prog(KINETICS), "chip.dsp.kinetics_acc_bits=20"], "kinetics: its registers"),
+    ([_prog(KINETICS), "chip.dsp.kinetics_acc_bits=20"],
+     "chip.dsp.kinetics_acc_bits = 20: cannot hold one 34-bit product"),
     ([_prog(SPATIAL), "chip.memory.capacity_bits=1400"],
      "chip.memory.capacity_bits = 1400: must be ≥"),
 ]
