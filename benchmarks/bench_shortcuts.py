@@ -13,6 +13,7 @@ bias.
 
     python benchmarks/bench_shortcuts.py                      # every scenario where it applies
     python benchmarks/bench_shortcuts.py pyro_1fmol --seeds 5
+    python benchmarks/bench_shortcuts.py --profile             # warm stage times, before/after
 
 The trace without frame steps changes no number: it is timed on the same seed (simulate alone,
 the chip model's share) and its outputs are checked identical.
@@ -34,7 +35,7 @@ import numpy as np
 from chiptwin import shortcuts, stages
 from chiptwin.config import load_scenario
 from chiptwin.results import detect
-from chiptwin.run import Recorder, prepare, simulate, stage_rng
+from chiptwin.run import Recorder, StageTimer, prepare, simulate, stage_rng
 
 ROOT = Path(__file__).resolve().parents[1] / "scenarios"
 ALL = ("pyro_1fmol", "pyro_array_256", "pyro_paper_yield_fast", "ccd_100fmol", "atp_glow",
@@ -119,14 +120,40 @@ def bench_steps(name: str, seeds: int) -> None:
           f"outputs {'identical' if same else 'DIFFER'}")
 
 
+def profile(name: str) -> None:
+    """Warm ``stage_time_s`` of the run's stages, full path against every shortcut that applies
+    (carried dark pixels where it does, the trace without frame steps everywhere)."""
+    s = load_scenario(ROOT / f"{name}.toml")
+    rows = {}
+    for label, carry, steps in (("full", False, True), ("full", False, True),
+                                ("shortcuts", True, False), ("shortcuts", True, False)):
+        timer = StageTimer()  # the second run of each is the warm one kept
+        t0 = time.perf_counter()
+        scene = prepare(s, timer)
+        out = simulate(s, scene, s.run.fidelity.photons, stage_rng(s.scenario.seed, "pixel"),
+                       Recorder(frame_steps=steps), timer, sites=stages.site_pixel_indices(s),
+                       carry_dark=carry)
+        with timer("detection"):
+            detect(s, scene, out)
+        rows[label] = (time.perf_counter() - t0, dict(timer.seconds))
+    for label, (wall, st) in rows.items():
+        stages_s = "  ".join(f"{k} {v:.3f}" for k, v in st.items())
+        print(f"{name:24s} {label:9s} {wall:8.3f} s   {stages_s}")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("scenarios", nargs="*", default=list(ALL))
     p.add_argument("--seeds", type=int, default=3,
                    help="pairs (full, carried) at seeds s … s + N − 1; times are their medians")
     p.add_argument("--only", choices=("carried", "steps"), help="one shortcut only")
+    p.add_argument("--profile", action="store_true",
+                   help="warm stage times (prepare, simulate, detect), full against shortcuts")
     args = p.parse_args()
     for name in args.scenarios:
+        if args.profile:
+            profile(name)
+            continue
         if args.only != "steps":
             bench(name, args.seeds)
         if args.only != "carried":

@@ -11,6 +11,9 @@ Carried dark pixels: on a 32 × 32 chip with 64 sites at a 4-pixel pitch (the ge
   and KS p > 1e-3 between the two paths);
 * at the carried pixels of the peak frame, the expected level's mean and variance (same bounds);
 * the full path bit for bit wherever it does not apply.
+
+Trace without frame steps (``Recorder(frame_steps=False)``): on nine bundled scenarios the same
+chip outputs and memory history, and exactly the full trace's other events, in order.
 """
 
 from __future__ import annotations
