@@ -29,6 +29,7 @@ import numpy as np
 
 from chiptwin import stages
 from chiptwin.chip import Schedule
+from chiptwin.config.fields import ScenarioError
 from chiptwin.dsp.filters import KineticsConfig, WienerConfig, design_wiener
 from chiptwin.dsp.pipeline import Pipeline
 from chiptwin.dsp.program import (
@@ -133,10 +134,19 @@ def spatial_plan(s: Scenario) -> SpatialPlan:
         return plan
     d = chip.dsp
     h = response_on_grid(plan, grid_coupling(s))
-    eq = design_wiener(h / np.diag(h)[None, :],
-                       WienerConfig(noise_to_signal=d.wiener_noise_to_signal, in_fmt=fmts.wiener_in,
-                                    coef_word_bits=d.wiener_coef_bits, rounding=d.rounding,
-                                    overflow=d.overflow, acc_overflow=d.acc_overflow))
+    cfg = WienerConfig(noise_to_signal=d.wiener_noise_to_signal, in_fmt=fmts.wiener_in,
+                       coef_word_bits=d.wiener_coef_bits, rounding=d.rounding,
+                       overflow=d.overflow, acc_overflow=d.acc_overflow)
+    try:
+        eq = design_wiener(h / np.diag(h)[None, :], cfg)
+    except (np.linalg.LinAlgError, ValueError) as err:
+        # zero forcing (λ → 0) of a coupling whose cells read the same light has no finite
+        # inverse, or one whose gains no 64-bit register holds; known only once the PSF is made
+        raise ScenarioError(
+            s.source, "chip.dsp.wiener_noise_to_signal", d.wiener_noise_to_signal,
+            f"stage 'wiener' cannot invert this {plan.n_grid}-cell grid's coupling ({err}): "
+            "its cells read (nearly) the same light; raise λ (0.01 for a site SNR of 20 dB)"
+        ) from None
     return replace(plan, wiener=eq)
 
 
@@ -324,13 +334,26 @@ def minimum_pitch(s: Scenario) -> tuple[float | None, float | None]:
         c = grid_coupling(small)
         c = c / np.diag(c)[None, :]
         centre, nbs = 12, [7, 11, 13, 17]
-        for k, a in enumerate((c, wiener_matrix(c, lam) @ c)):
+        for k, a in enumerate((c, _equalized(c, lam))):
+            if a is None:  # no equalizer at this pitch: not resolved with it
+                continue
             leak = max(abs(a[n, centre]) for n in nbs) / a[centre, centre]
             if found[k] is None and leak > 0 and 10 * math.log10(leak) <= RESOLVED_LEAK_DB:
                 found[k] = float(p)
         if all(f is not None for f in found):
             break
     return found[0], found[1]
+
+
+def _equalized(c: np.ndarray, lam: float) -> np.ndarray | None:
+    """``G C`` of the Wiener equalizer of ``c`` at λ, or None where there is none: zero forcing
+    (λ → 0) of a coupling whose pixels all read the same light (a pitch far below the height)
+    is singular."""
+    try:
+        a = wiener_matrix(c, lam) @ c
+    except np.linalg.LinAlgError:
+        return None
+    return a if np.isfinite(a).all() else None
 
 
 def profile_figures(s: Scenario, dsp: ProgramPipeline, arrays: dict[str, np.ndarray],

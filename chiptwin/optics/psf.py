@@ -183,7 +183,7 @@ def _footprint_nodes(shape: str, size_um: float, n: int) -> tuple[NDArray, NDArr
         qx, qy = np.meshgrid(q, q)
         return qx.ravel(), qy.ravel(), np.outer(w, w).ravel() / 4.0
     r = 0.5 * size_um * (1.0 + x)
-    w_r = w * r / np.sum(w * r)
+    w_r = w * (1.0 + x) / np.sum(w * (1.0 + x))  # ∝ r, without r: a subnormal radius underflows
     phi = (np.arange(2 * n) + 0.5) * (np.pi / n)
     qx, qy = np.outer(r, np.cos(phi)), np.outer(r, np.sin(phi))
     return qx.ravel(), qy.ravel(), np.repeat(w_r / (2 * n), 2 * n)

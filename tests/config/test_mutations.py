@@ -24,6 +24,7 @@ import io
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
@@ -278,3 +279,17 @@ def test_times_in_range_never_under_or_overflow_the_tick():
     assert s_to_ticks(TICK_S) == 1
     assert s_to_ticks(MAX_TIME_S) == 10**16 < 2**63
     assert math.isclose(s_to_ticks(math.nextafter(MAX_TIME_S, 0)), 1e16, rel_tol=1e-15)
+
+
+def test_subnormal_footprint_is_a_point_source():
+    """Found by the optics sweep on crosstalk_microarray and ccd_two_wells
+    (``sites.footprint_radius_um = 5e-324``): the disc's radial weights ∝ r underflowed to 0/0,
+    the quadrature never converged (ValueError, exit 1 in the run). The weights no longer hold
+    r: a subnormal disc is the point."""
+    from chiptwin.optics.psf import coupling_psf
+
+    grid = dict(n_rows=3, n_cols=3, pitch_um=125.0, diode_w_um=100.0, diode_h_um=100.0,
+                site_x_um=[0.0], site_y_um=[0.0], height_um=150.0, convention="lambertian_na2")
+    point = coupling_psf(**grid)
+    for r in (5e-324, 1e-310):
+        assert np.allclose(coupling_psf(**grid, site_radius_um=r), point, rtol=1e-9, atol=0)

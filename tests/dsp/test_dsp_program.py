@@ -303,3 +303,41 @@ def test_kinetics_program_replaces(small_toml):
     assert program_formats(chip).front.average.n == 1
     assert program_formats(replace(chip, dsp=replace(chip.dsp, program=[
         "cms", "dark", "background", "average"]))).front.average.n == chip.dsp.average_frames
+
+
+# --- the Wiener stage where zero forcing has no inverse (found by the mutation sweep) ----------
+
+
+def _with_lambda(name: str, lam: float, **sites):
+    s = load_scenario(SCENARIOS / f"{name}.toml")
+    return replace(s, chip=replace(s.chip, dsp=replace(s.chip.dsp, wiener_noise_to_signal=lam)),
+                   sites=replace(s.sites, **sites))
+
+
+def test_minimum_pitch_skips_pitches_without_a_zero_forcing_equalizer():
+    """ccd_two_wells at λ = 0: at 0.1 × its 24 µm pitch, 150 µm below the wells, every pixel of
+    the 5 × 5 probe reads the same light, the Gram matrix is singular (LinAlgError before). That
+    pitch is unresolved with the equalizer; the scan goes on to one where it exists."""
+    from chiptwin.programs import PITCH_SCAN, minimum_pitch
+
+    s = _with_lambda("ccd_two_wells", 0.0)
+    without, with_eq = minimum_pitch(s)
+    assert with_eq is not None and with_eq > PITCH_SCAN[0] * s.chip.pitch_um
+    assert without is None or with_eq <= without
+
+
+def test_wiener_that_cannot_invert_the_grid_is_refused_naming_lambda(monkeypatch):
+    """Zero forcing of a grid whose Gram matrix is exactly singular has no equalizer (numpy
+    raises LinAlgError; seen in the minimum-pitch probe, not found on a bundled grid, so the
+    design is made to fail here): the run is refused by λ's key, one line, not an internal
+    error."""
+    import chiptwin.programs as programs
+    from chiptwin.config import ScenarioError
+
+    def singular(*_args, **_kw):
+        raise np.linalg.LinAlgError("Singular matrix")
+
+    monkeypatch.setattr(programs, "design_wiener", singular)
+    with pytest.raises(ScenarioError, match="chip.dsp.wiener_noise_to_signal = 0.0: stage "
+                                            "'wiener' cannot invert this 128-cell grid"):
+        spatial_plan(_with_lambda("crosstalk_microarray", 0.0))
