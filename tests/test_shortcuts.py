@@ -153,20 +153,35 @@ def test_where_it_does_not_apply_the_run_is_the_full_path_bit_for_bit(wide, case
 # --- Frame steps not recorded (Recorder(frame_steps=False)) -------------------------------------
 
 QUICK = ("pyro_1fmol", "ccd_100fmol", "atp_glow", "atp_dose_response", "luciferase_label",
-         "crosstalk_microarray", "ccd_two_wells", "snr10_requirement", "pyro_paper_yield")
+         "crosstalk_microarray", "ccd_two_wells", "snr10_requirement", "pyro_paper_yield",
+         "slow_dsp_40", "slow_dsp_20")
+#: The small scenario with a DSP too slow for its frames (clock 40 or 20 Hz) and a memory of a
+#: block and a half: most frames are dropped, writes and frees meet at every tick.
+SLOW = {"slow_dsp_40": ["chip.memory.capacity_bits=6528", "chip.dsp.clock_hz=40"],
+        "slow_dsp_20": ["chip.memory.capacity_bits=9600", "chip.dsp.clock_hz=20"]}
+
+
+def _quick(name: str, tmp_path):
+    """A bundled scenario (at the expected level where its DSP allows) or a :data:`SLOW` one."""
+    from tests.conftest import SCENARIOS, SMALL
+
+    if name in SLOW:
+        path = tmp_path / "small.toml"
+        path.write_text(SMALL)
+        return load_scenario(path, [*SLOW[name], "run.fidelity.photons=expected"])
+    fast = [] if name in ("crosstalk_microarray", "ccd_two_wells") else [
+        "run.fidelity.photons=expected"]  # those two run a fixed DSP: codes needed
+    return load_scenario(SCENARIOS / f"{name}.toml", fast)
 
 
 @pytest.mark.parametrize("name", QUICK)
-def test_compact_trace_is_the_full_trace_without_the_frame_steps(name):
+def test_compact_trace_is_the_full_trace_without_the_frame_steps(name, tmp_path):
     """Same chip outputs, memory history, drops, DSP time and end, and the same events in the same
     order at the same ticks once the full trace's frame steps are taken out (at the expected level
     where the DSP allows: the chip model does not depend on the photon level)."""
     from chiptwin.chip.trace import FRAME_STEPS
-    from tests.conftest import SCENARIOS
 
-    fast = [] if name in ("crosstalk_microarray", "ccd_two_wells") else [
-        "run.fidelity.photons=expected"]  # those two run a fixed DSP: codes needed
-    s = load_scenario(SCENARIOS / f"{name}.toml", fast)
+    s = _quick(name, tmp_path)
     scene = prepare(s)
     runs = []
     for steps in (True, False):
@@ -183,3 +198,54 @@ def test_compact_trace_is_the_full_trace_without_the_frame_steps(name):
     assert [ks for ks, _ in a.outputs] == [ks for ks, _ in b.outputs]
     np.testing.assert_array_equal(full.value_e, cut.value_e)
     assert not rec_cut.to_arrays()["trace_frame_steps"]
+
+
+def _dsp_one_get_per_frame(env, sch, dsp, memory, rec, run):
+    """The DSP process as it was, waking once per frame (one ``store.get()`` each): the slow
+    obvious reference of the block get."""
+    size, first = sch.dark_frames, True
+    while True:
+        items = []
+        for _ in range(size):
+            items.append((yield memory.store.get()))
+        rec.record(env.now, "dsp", "job_start", len(items))
+        frames = [payload for _, payload in items]
+        out = None if first else dsp.block(frames)
+        spread = -(-sch.dsp_ns_per_output // sch.block_frames)
+        duration = size * (sch.dsp_ns_per_frame - spread)
+        if out is not None:
+            duration += sch.dsp_ns_per_output
+        yield env.timeout(duration)
+        run.dsp_busy_ns += duration
+        if first:
+            dsp.dark(frames)
+        elif out is not None:
+            run.outputs.append(([k for k, _ in items], out))
+        rec.record(env.now, "dsp", "job_end", len(items))
+        memory.free(size)
+        size, first = sch.block_frames, False
+
+
+@pytest.mark.parametrize("name", QUICK)
+def test_block_get_is_one_get_per_frame(name, monkeypatch, tmp_path):
+    """The DSP's one wake-up per job (``_FrameStore.get_block``) against one per frame: the same
+    trace, event for event, and the same chip outputs."""
+    from chiptwin.chip import des
+
+    s = _quick(name, tmp_path)
+    scene = prepare(s)
+    runs = []
+    for reference in (True, False):
+        with monkeypatch.context() as m:
+            if reference:
+                m.setattr(des, "_dsp", _dsp_one_get_per_frame)
+            rec = Recorder()
+            out = simulate(s, scene, s.run.fidelity.photons, stage_rng(0, "pixel"), rec)
+        runs.append((out, rec))
+    (a, rec_a), (b, rec_b) = runs
+    assert rec_a.events == rec_b.events
+    assert (a.chip.occupancy, a.chip.dropped, a.chip.dsp_busy_ns, a.chip.end_ns,
+            a.chip.unprocessed_frames) == (b.chip.occupancy, b.chip.dropped, b.chip.dsp_busy_ns,
+                                           b.chip.end_ns, b.chip.unprocessed_frames)
+    assert [ks for ks, _ in a.chip.outputs] == [ks for ks, _ in b.chip.outputs]
+    np.testing.assert_array_equal(a.value_e, b.value_e)

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import simpy
+from simpy.core import BoundClass
 
 from chiptwin.chip.trace import Recorder
 from chiptwin.config.schema import Chip
@@ -112,12 +113,36 @@ class ChipRun:
         return max((occ for _, occ in self.occupancy), default=0)
 
 
+class _BlockGet(simpy.resources.base.Get):
+    """A request for the next ``n`` frames of a :class:`_FrameStore`, granted all at once."""
+
+    def __init__(self, store: _FrameStore, n: int):
+        self.n = n
+        super().__init__(store)
+
+
+class _FrameStore(simpy.Store):
+    """SimPy's FIFO Store, plus ``get_block(n)``: the first ``n`` items as a list, granted when
+    the ``n``-th of ``n`` single gets would have been (one event and one wake-up of the DSP per
+    job instead of one per frame; the same items at the same tick)."""
+
+    get_block = BoundClass(_BlockGet)
+
+    def _do_get(self, event):
+        if not isinstance(event, _BlockGet):
+            return super()._do_get(event)
+        if len(self.items) >= event.n:
+            event.succeed(self.items[:event.n])
+            del self.items[:event.n]
+        return None
+
+
 class FrameMemory:
     """Frame memory of ``capacity`` frames: a SimPy Store plus occupancy accounting."""
 
     def __init__(self, env: simpy.Environment, capacity: int, rec: Recorder, run: ChipRun):
         self.env, self.capacity, self.rec, self.run = env, capacity, rec, run
-        self.store = simpy.Store(env)
+        self.store = _FrameStore(env)
         self.occupied = 0
 
     def write(self, k: int, payload: Any) -> bool:
@@ -218,9 +243,7 @@ def _dsp(env, sch: Schedule, dsp: DspEngine, memory: FrameMemory, rec, run):
     """The DSP: the dark block once, then blocks of N frames, each job taking its stated time."""
     size, first = sch.dark_frames, True
     while True:
-        items = []
-        for _ in range(size):
-            items.append((yield memory.store.get()))
+        items = (yield memory.store.get_block(size)) if size else []
         rec.record(env.now, "dsp", "job_start", len(items))
         frames = [payload for _, payload in items]
         out = None if first else dsp.block(frames)  # None: no output yet (kinetics window)
