@@ -225,6 +225,9 @@ class ChainOutput:
     pixels: np.ndarray | None = None
     peak_frame_e: np.ndarray | None = None
     peak_block: int = 0
+    #: Pixels the run did not draw but carried at the ``expected`` level
+    #: (:mod:`chiptwin.shortcuts`, carried dark pixels); 0 on the full path.
+    carried_pixels: int = 0
 
     def columns(self, idx: np.ndarray) -> np.ndarray:
         """Columns of ``value_e`` (and ``mean_e``, ``var_e2``) holding pixels ``idx``."""

@@ -36,7 +36,13 @@ carried ones are restored at the ``expected`` level (:func:`restore`):
   ``events`` level (its counted pixels index the whole array) and the ``expected`` level (which
   draws nothing).
 
-Measured (``benchmarks/bench_shortcuts.py``): ``pyro_array_256`` draws 4,103 of 65,536 pixels.
+The summary can say so: :attr:`~chiptwin.scene.ChainOutput.carried_pixels` counts them.
+
+Measured (``benchmarks/bench_shortcuts.py``, warm, simulate + detect, 2-core machine shared with
+other jobs): ``pyro_array_256`` draws 4,103 of 65,536 pixels, 22.8 s → 2.3 s (9.9×), its
+figures within the full path's seed-to-seed spread (median |Δ signal| 0.84 σ against 0.84 σ,
+median SNR 1.0 % against 0.6 %, fraction called right 0.004 against 0.004); ``pyro_1fmol``
+44 of 128, 1.5×; ``pyro_paper_yield_fast`` 107 of 128, 1.1×.
 """
 
 from __future__ import annotations
@@ -200,6 +206,7 @@ def restore(s, scene: Scene, split: Split, out: ChainOutput, keep: np.ndarray,
     dark_var[split.carried] = moments.dark_var * e**2
     out.dark_var_e2 = dark_var
     out.pixels = keep
+    out.carried_pixels = len(split.carried)
     if out.peak_frame_e is not None and chip.outputs:
         frame = np.empty(scene.n_pixels)
         frame[split.drawn] = out.peak_frame_e

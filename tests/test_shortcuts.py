@@ -92,6 +92,7 @@ def test_carried_run_has_the_full_paths_moments_trace_and_flags(wide):
         full.full_well_pixel_frames, full.adc_clipped_samples)
     assert cut.peak_frame_e.shape == full.peak_frame_e.shape
     assert not np.array_equal(cut.value_e, full.value_e)  # other draws: a statistical equality
+    assert full.carried_pixels == 0 and cut.carried_pixels > 0
 
 
 def test_sites_have_the_full_paths_law(wide):
