@@ -144,10 +144,11 @@ def resolve(s: Scenario, cache: Path | None = None) -> tuple[Scenario, AutoChoic
               for st in LEVELS if st not in auto}
     total = dict.fromkeys(FIGURES, 0.0)
     reasons = {}
-    for stage, level in chosen.items():  # the user's own levels spend budget too
+    for stage, level in chosen.items():  # the levels not left to auto spend budget too
         est = estimator.estimate(stage, level, {**ref, **chosen})
         _add(total, est.errors)
-        reasons[stage] = f"{level} (set in the scenario): {est.how}"
+        spent = ", ".join(f"{f} {_fmt(est.errors.get(f, math.inf))}" for f in budget)
+        reasons[stage] = f"{level} (not auto): {est.how} → {spent}"
     for stage in (st for st in ORDER if st in auto):
         refused, picked = [], None
         for level in LEVELS[stage][: LEVELS[stage].index(ref[stage]) + 1]:
@@ -274,6 +275,7 @@ class _Estimator:
             return Estimate.exact("fixed equals the RTL bit for bit (co-simulated)")
         from chiptwin.dsp.fixed import accumulator_bits_needed
         from chiptwin.dsp.pipeline import chain_for
+        from chiptwin.dsp.program import DEFAULT_PROGRAM, is_default
 
         d = self.s.chip.dsp
         chain = chain_for(self.s.chip)
@@ -283,13 +285,42 @@ class _Estimator:
                             f"the {d.acc_bits}-bit N-frame accumulator can wrap: fixed differs "
                             "from float without bound")
         lsb = _rounding_bound_lsb(chain, d.cms_samples, d.n_dark_frames, d.average_frames)
+        how = ("M, K, N powers of two: the fixed chain is exact" if lsb == 0 else
+               f"the chain's rounding, at most {lsb:.3g} LSB per output")
+        if not is_default(d.program):
+            later = self._program_bound_lsb()
+            lsb += later
+            further = [st for st in d.program if st not in DEFAULT_PROGRAM]
+            how += (f"; the program's further stages ({', '.join(further)}) at most "
+                    f"{later:.3g} LSB (their analytic bounds on this scene's data, calibrated)")
         summary, _, e_per_lsb = self._base_run()
         signal = min(abs(st["signal_e"]) for st in summary["sites"]) or math.inf
         errors = {"dsp_lsb": lsb, "signal_rel": lsb * e_per_lsb / signal, "noise_rel": 0.0,
                   "flow_value_abs": 2 * lsb * e_per_lsb / signal}
-        how = ("M, K, N powers of two: the fixed chain is exact" if lsb == 0 else
-               f"the chain's rounding, at most {lsb:.3g} LSB per output")
         return Estimate(_with_snr(errors), how)
+
+    def _program_bound_lsb(self) -> float:
+        """The largest analytic bound of the program's stages after the chain (kinetics,
+        bin_rows, fir8, wiener: coefficient quantisation and rounding, which depend on the
+        data), from one fixed-point run of the scene with ``report_error``; cached. The chain's
+        own bound is not in it (that is :func:`_rounding_bound_lsb`)."""
+        key = _scene_hash(self.s, "dsp", "float", "fixed")
+        cached = _cache_get(self.cache, key)
+        if cached is not None:
+            self.cached.append("dsp")
+            return cached["dsp_lsb"]
+        from chiptwin.ladder import with_levels
+        from chiptwin.run import run
+
+        t0 = time.perf_counter()
+        sv = with_levels(self.s, {**self.ref, "photons": "binned", "dsp": "fixed"})
+        sv = dataclasses.replace(sv, chip=dataclasses.replace(
+            sv.chip, dsp=dataclasses.replace(sv.chip.dsp, report_error=True)))
+        bounds = run(sv).summary["dsp_program"].get("stage_error_bounds", {})
+        lsb = float(sum(b["bound_lsb"] for b in bounds.values()))
+        self.calibration_s += time.perf_counter() - t0
+        _cache_put(self.cache, key, {"dsp_lsb": lsb})
+        return lsb
 
     # -- the scene at the expected level -----------------------------------------------------
 
@@ -431,6 +462,10 @@ def describe(choice: AutoChoice) -> list[str]:
     est = ", ".join(f"{f} {_fmt(choice.estimate[f])} (budget {b:g})"
                     for f, b in choice.budget.items())
     lines.append(f"  estimated error against the reference: {est}")
+    over = [f for f, b in choice.budget.items() if choice.estimate[f] > b]
+    if over:
+        lines.append(f"  over the budget on {', '.join(over)}: the levels not left to auto "
+                     "already spend it; auto kept the reference level of its stages")
     if choice.calibration_s:
         lines.append(f"  calibration runs: {choice.calibration_s:.2f} s (cached for next time)")
     return lines

@@ -49,6 +49,44 @@ LEVELS: dict[str, tuple[str, ...]] = {
 SAME_DRAWS = frozenset({"kinetics", "optics", "dsp"})
 
 
+@dataclass(frozen=True)
+class HardCase:
+    """A scene where one stage's cheap level is wrong: ``chiptwin ladder SCENARIO --set ...``
+    shows its error, and ``auto`` with ``budget`` must refuse it (``tests/test_fidelity.py``)."""
+
+    scenario: str
+    overrides: tuple[str, ...]
+    stage: str
+    cheap: str
+    budget: dict[str, float]
+    why: str
+
+
+#: The hard cases of issue 9, each a bundled scenario with a few keys changed.
+HARD_CASES: dict[str, HardCase] = {
+    "dim_shot": HardCase(
+        "ccd_100fmol", ("assay.n_flows=8", "run.duration_s=496.0"), "shot", "gaussian",
+        {"signal_rel": 0.01},
+        "a cooled chip: the dimmest site pixel-frame holds ≈ 3 e⁻, where the rounded normal is "
+        "0.07 (TV) from Poisson"),
+    "homopolymer_5mer": HardCase(
+        "pyro_1fmol", ('assay.template="TCAGTTTTT"', "assay.n_flows=9", "run.duration_s=560.0"),
+        "kinetics", "closed_form", {"flow_value_abs": 0.01},
+        "a 5-mer saturates luciferase: the cascade's light comes later and lower, flow value "
+        "5.024 against the closed form's 5.046"),
+    "dense_na2": HardCase(
+        "crosstalk_microarray", ('chip.dsp.program=["cms", "dark", "background", "average"]',),
+        "optics", "na2", {"signal_rel": 0.01},
+        "a site above every pixel, 150 µm up: the psf spreads each site's light over its "
+        "neighbours, which na2 (own diode only) misses"),
+    "narrow_accumulator": HardCase(
+        "pyro_1fmol", ('chip.dsp.mode="fixed"', "chip.dsp.acc_bits=12", "assay.n_flows=8",
+                       "run.duration_s=500.0"),
+        "dsp", "float", {"snr_rel": 0.01},
+        "a 12-bit N-frame accumulator wraps: fixed differs from float without bound"),
+}
+
+
 @dataclass
 class Rung:
     """One row of the ladder."""
