@@ -409,7 +409,8 @@ def program_plots(result: Any, folder: Any) -> list[tuple[str, str]]:
         for c in cells:
             ax.axvline(c, color="grey", lw=0.5, ls=":")
         sep = result.summary["column_profile"][f"valley_to_peak_{name}"]
-        ax.set(ylabel="e⁻ (sum of outputs)", title=f"{title}: valley/peak {sep:.2f}")
+        shown = "—, no light at the sites" if sep is None else f"{sep:.2f}"
+        ax.set(ylabel="e⁻ (sum of outputs)", title=f"{title}: valley/peak {shown}")
         ax.legend(fontsize=7)
     axes[1].set_xlabel("column")
     fig.tight_layout()

@@ -341,3 +341,21 @@ def test_wiener_that_cannot_invert_the_grid_is_refused_naming_lambda(monkeypatch
     with pytest.raises(ScenarioError, match="chip.dsp.wiener_noise_to_signal = 0.0: stage "
                                             "'wiener' cannot invert this 128-cell grid"):
         spatial_plan(_with_lambda("crosstalk_microarray", 0.0))
+
+
+def test_column_profile_plot_without_light_at_the_sites(tmp_path):
+    """Found by the mutation test (ccd_two_wells, ``chip.pixel.capacitance_fF = 1e7``: no charge
+    reaches a code): the profile's valley/peak is None and the plot's title said ``None:.2f``
+    (TypeError, exit 1 after the run). It says there is no light instead."""
+    from types import SimpleNamespace
+
+    from chiptwin.programs import program_plots
+
+    s = load_scenario(SCENARIOS / "ccd_two_wells.toml")
+    zero = np.zeros((1, s.chip.cols))
+    result = SimpleNamespace(
+        scenario=s, arrays={f"column_profile_{k}_e": zero for k in (
+            "before", "after", "before_expected", "after_expected")},
+        summary={"column_profile": {"valley_to_peak_before": None, "valley_to_peak_after": None}})
+    assert [name for name, _ in program_plots(result, tmp_path)] == ["column_profile.png"]
+    assert (tmp_path / "column_profile.png").stat().st_size > 0
