@@ -191,7 +191,8 @@ def _fmt(v: float) -> str:
 
 
 class _Estimator:
-    """Each level's :class:`Estimate` on one scene, computed once."""
+    """Each level's :class:`Estimate` on one scene (the expected-level run they share is made
+    once; calibrations are read from the cache when there)."""
 
     def __init__(self, s: Scenario, ref: dict[str, str], cache: Path | None) -> None:
         self.s, self.ref, self.cache = s, ref, cache
@@ -229,7 +230,8 @@ class _Estimator:
 
         base = self._expected_levels()
         runs = [_expected_figures(self.s, {**base, stage: lv}) for lv in (level, self.ref[stage])]
-        errors = _budget_errors(figure_errors(runs[0][0], runs[1][0]))
+        measured = figure_errors(runs[0][0], runs[1][0])
+        errors = {f: float(measured.get(f, 0.0)) for f in FIGURES}  # no flows: 0
         self.calibration_s += time.perf_counter() - t0
         _cache_put(self.cache, key, errors)
         return Estimate(errors, how)
@@ -300,7 +302,7 @@ class _Estimator:
         return Estimate(_with_snr(errors), how)
 
     def _program_bound_lsb(self) -> float:
-        """The largest analytic bound of the program's stages after the chain (kinetics,
+        """The sum of the analytic bounds of the program's stages after the chain (kinetics,
         bin_rows, fir8, wiener: coefficient quantisation and rounding, which depend on the
         data), from one fixed-point run of the scene with ``report_error``; cached. The chain's
         own bound is not in it (that is :func:`_rounding_bound_lsb`)."""
@@ -364,12 +366,6 @@ def _expected_figures(s: Scenario, levels: dict[str, str]):
     summary, arrays = detect(sv, scene, out)
     e_per_lsb = scene.sensor.e_per_lsb
     return figures(Result(summary, arrays, Recorder(), sv), e_per_lsb), summary, out, e_per_lsb
-
-
-def _budget_errors(errors: dict[str, float]) -> dict[str, float]:
-    """The ladder's errors as budget figures (``snr_rel`` and ``snr_db`` from power SNR)."""
-    out = {f: float(errors.get(f, 0.0)) for f in FIGURES}
-    return out
 
 
 def _with_snr(errors: dict[str, float]) -> dict[str, float]:
