@@ -309,6 +309,18 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
                      f"{d['lod_from_blank_spread_amol']:.3g} ± "
                      f"{d['lod_from_blank_spread_se_amol']:.2g} amol")
         rows.append(("limit of detection", text))
+    c = summary.get("crosstalk", {})
+    if c.get("before_db_median") is not None and c.get("after_db_median") is not None:
+        rows.append(("cross-talk (median)", f"{c['before_db_median']:+.1f} dB before, "
+                     f"{c['after_db_median']:+.1f} dB after the equalizer (predicted "
+                     f"{c['after_predicted_db_median']:+.1f}); SNR cost "
+                     f"{c['snr_cost_db_median']:.1f} dB"))
+        rows.append(("neighbours resolved", f"from {c['min_pitch_um_with']:.0f} µm pitch with "
+                     f"the equalizer, {c['min_pitch_um_without']:.0f} µm without"))
+    c = summary.get("column_profile", {})
+    if c.get("valley_to_peak_before") is not None and c.get("valley_to_peak_after") is not None:
+        rows.append(("valley / peak", f"{c['valley_to_peak_before']:.3g} before, "
+                     f"{c['valley_to_peak_after']:.3g} after binning, FIR and equalization"))
     for site in summary.get("saturation", {}).get("sites", [])[:8]:
         fills = site.get("fills", [])
         text = f"peak charge {site['peak_fraction_of_full_well']:.3g} × the full well"

@@ -46,3 +46,16 @@ def small_toml(tmp_path: Path) -> Path:
     path = tmp_path / "small.toml"
     path.write_text(SMALL)
     return path
+
+
+#: ``--set`` keys that make a bundled scenario small: the same physics, fewer frames (and
+#: pixels), so a test can run every bundled scenario in seconds.
+REDUCED = {
+    "pyro_1fmol": ["assay.n_flows=8", "run.duration_s=500.0"],
+    "ccd_100fmol": ["assay.n_flows=8", "run.duration_s=496.0"],
+    "pyro_array_256": ["assay.n_flows=8", "run.duration_s=500.0", "chip.rows=8", "chip.cols=8",
+                       "sites.at_pixels=[[2, 2], [2, 6], [6, 2], [6, 6]]"],
+    "pyro_paper_yield": ["assay.n_flows=8", "run.duration_s=500.0"],
+    "pyro_paper_yield_fast": ["assay.n_flows=8", "assay.flow_period_s=4.0",
+                              "run.duration_s=34.0"],
+}

@@ -16,7 +16,7 @@ from chiptwin.config import load_scenario
 from chiptwin.fidelity import gaussian_tv, resolve
 from chiptwin.ladder import HARD_CASES, LEVELS, reference_levels, with_levels
 from chiptwin.run import fidelity_used, run
-from tests.conftest import SCENARIOS
+from tests.conftest import REDUCED, SCENARIOS
 
 ALL_AUTO = [f'run.fidelity.{stage}="auto"' for stage in LEVELS]
 
@@ -86,15 +86,6 @@ def test_malformed_budget_exits_2_with_one_line(sets, says, tmp_path, capsys):
 
 # -- every bundled scenario: auto is cheaper and within its budget ---------------------------
 
-REDUCE = {  # the same physics, fewer frames (and pixels): keeps the suite to seconds
-    "pyro_1fmol": ["assay.n_flows=8", "run.duration_s=500.0"],
-    "ccd_100fmol": ["assay.n_flows=8", "run.duration_s=496.0"],
-    "pyro_array_256": ["assay.n_flows=8", "run.duration_s=500.0", "chip.rows=8", "chip.cols=8",
-                       "sites.at_pixels=[[2, 2], [2, 6], [6, 2], [6, 6]]"],
-    "pyro_paper_yield": ["assay.n_flows=8", "run.duration_s=500.0"],
-    "pyro_paper_yield_fast": ["assay.n_flows=8", "assay.flow_period_s=4.0",
-                              "run.duration_s=34.0"],
-}
 BUDGET = {"snr_rel": 0.05, "signal_rel": 0.03, "flow_value_abs": 0.05}
 
 
@@ -110,7 +101,7 @@ def test_auto_is_cheaper_than_the_reference_and_within_its_budget(name):
     draw differently, so each seed's difference holds noise) is within the budget, up to 3
     standard errors of that mean."""
     sets = ALL_AUTO + [f"run.error_budget.{f}={v}" for f, v in BUDGET.items()]
-    s = load_scenario(SCENARIOS / f"{name}.toml", sets + REDUCE.get(name, []))
+    s = load_scenario(SCENARIOS / f"{name}.toml", sets + REDUCED.get(name, []))
     resolved, choice = resolve(s)
     # rtl is fixed bit for bit (tests/rtl); events gives binned's law (test below) at a cost
     # that grows with the photons (ccd_two_wells: minutes)

@@ -12,6 +12,7 @@ from chiptwin import pixel
 from chiptwin.cli import main
 from chiptwin.config import ScenarioError, load_scenario
 from chiptwin.run import chip_sensor, prepare, run, run_prepared
+from tests.conftest import REDUCED, SCENARIOS
 
 TIMING_KEYS = {"wall_time_s", "stage_time_s"}
 
@@ -127,7 +128,6 @@ def test_noise_model_matches_blank_pixels_of_the_reference_chip():
     samples are correlated, the case the M-sample mean's LSB²/12M gets wrong: it was 40 % low).
     69 pixels × 375 outputs: the variance's standard error is 0.9 %; tolerance 3 %."""
     from chiptwin.run import Recorder, prepare, simulate, stage_rng
-    from tests.conftest import SCENARIOS
 
     s = load_scenario(SCENARIOS / "pyro_1fmol.toml")
     scene = prepare(s)
@@ -204,3 +204,16 @@ def test_pixel_frames_are_the_per_frame_functions(small_toml):
         assert np.array_equal(got.cds_var_lsb2[k], var_e * to_lsb**2 + quant_var)
         full += int(np.count_nonzero(lam >= sensor.full_well_e))
     assert got.full_well_pixel_frames == full > 0
+
+
+@pytest.mark.parametrize("name", sorted(p.stem for p in SCENARIOS.glob("*.toml")))
+def test_every_bundled_scenario_writes_its_outputs(name, tmp_path):
+    """Each bundled scenario (made small, :data:`tests.conftest.REDUCED`) runs and writes its
+    summary, report and plots: the headline and plot code meet every scene's summary."""
+    from chiptwin.report import write_outputs
+
+    result = run(load_scenario(SCENARIOS / f"{name}.toml", REDUCED.get(name, [])))
+    out = write_outputs(result, tmp_path / "out")
+    report = (out / "report.md").read_text()
+    assert json.loads((out / "summary.json").read_text())["scenario"] == name
+    assert all(f"]({png.name})" in report for png in out.glob("*.png"))
