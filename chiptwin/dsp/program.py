@@ -37,6 +37,7 @@ neighbours), not only its diagonal (:meth:`Program.covariance`).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
@@ -152,8 +153,14 @@ def program_formats(chip: Chip) -> ProgramFormats:
     """Formats of ``chip.dsp.program``'s stages.
 
     Raises :class:`~chiptwin.dsp.chain.FormatLimit` (a ValueError) naming the ``[chip.dsp]``
-    key whose registers would be wider than 64 bits.
+    key whose registers would be wider than 64 bits. Derived once per chip: validation, the
+    schedule, the stage costs and the run each ask for them (the FIR's taps are a firwin design).
     """
+    return _program_formats(replace(chip, dsp=replace(chip.dsp, program=tuple(chip.dsp.program))))
+
+
+@functools.lru_cache(maxsize=32)
+def _program_formats(chip: Chip) -> ProgramFormats:
     from chiptwin.dsp.pipeline import chain_for
 
     d, program = chip.dsp, chip.dsp.program
