@@ -201,11 +201,22 @@ class _Estimator:
         self._base: Any = None
 
     def estimate(self, stage: str, level: str, levels: dict[str, str]) -> Estimate:
+        """The error of ``level`` against the stage's reference, with the other stages at
+        ``levels``; read from the cache when this scene's was computed before."""
         if stage == "shot" and levels.get("photons") == "expected":
             return Estimate.exact("the expected photon level draws no counts")
         if level == self.ref[stage]:
             return Estimate.exact("the most faithful level this scene accepts")
-        return getattr(self, "_" + stage)(level)
+        key = _scene_hash(self.s, stage, level, self.ref[stage])
+        hit = _cache_get(self.cache, key)
+        if hit is not None:
+            self.cached.append(stage)
+            return Estimate(hit["errors"], hit["how"] + " (cached)")
+        t0 = time.perf_counter()
+        est = getattr(self, "_" + stage)(level)
+        self.calibration_s += time.perf_counter() - t0
+        _cache_put(self.cache, key, {"errors": est.errors, "how": est.how})
+        return est
 
     # -- calibrated stages -------------------------------------------------------------------
 
@@ -220,21 +231,12 @@ class _Estimator:
                         f"{_cross_talk_share(self.s):.3g} of their light")
 
     def _calibrated(self, stage: str, level: str, how: str) -> Estimate:
-        key = _scene_hash(self.s, stage, level, self.ref[stage])
-        errors = _cache_get(self.cache, key)
-        if errors is not None:
-            self.cached.append(stage)
-            return Estimate(errors, how + " (cached)")
-        t0 = time.perf_counter()
         from chiptwin.ladder import errors as figure_errors
 
         base = self._expected_levels()
         runs = [_expected_figures(self.s, {**base, stage: lv}) for lv in (level, self.ref[stage])]
         measured = figure_errors(runs[0][0], runs[1][0])
-        errors = {f: float(measured.get(f, 0.0)) for f in FIGURES}  # no flows: 0
-        self.calibration_s += time.perf_counter() - t0
-        _cache_put(self.cache, key, errors)
-        return Estimate(errors, how)
+        return Estimate({f: float(measured.get(f, 0.0)) for f in FIGURES}, how)  # no flows: 0
 
     # -- analytic stages ---------------------------------------------------------------------
 
@@ -304,25 +306,16 @@ class _Estimator:
     def _program_bound_lsb(self) -> float:
         """The sum of the analytic bounds of the program's stages after the chain (kinetics,
         bin_rows, fir8, wiener: coefficient quantisation and rounding, which depend on the
-        data), from one fixed-point run of the scene with ``report_error``; cached. The chain's
+        data), from one fixed-point run of the scene with ``report_error``. The chain's
         own bound is not in it (that is :func:`_rounding_bound_lsb`)."""
-        key = _scene_hash(self.s, "dsp", "float", "fixed")
-        cached = _cache_get(self.cache, key)
-        if cached is not None:
-            self.cached.append("dsp")
-            return cached["dsp_lsb"]
         from chiptwin.ladder import with_levels
         from chiptwin.run import run
 
-        t0 = time.perf_counter()
         sv = with_levels(self.s, {**self.ref, "photons": "binned", "dsp": "fixed"})
         sv = dataclasses.replace(sv, chip=dataclasses.replace(
             sv.chip, dsp=dataclasses.replace(sv.chip.dsp, report_error=True)))
         bounds = run(sv).summary["dsp_program"].get("stage_error_bounds", {})
-        lsb = float(sum(b["bound_lsb"] for b in bounds.values()))
-        self.calibration_s += time.perf_counter() - t0
-        _cache_put(self.cache, key, {"dsp_lsb": lsb})
-        return lsb
+        return float(sum(b["bound_lsb"] for b in bounds.values()))
 
     # -- the scene at the expected level -----------------------------------------------------
 
@@ -432,23 +425,26 @@ def _connect(path: Path | None) -> sqlite3.Connection:
     path = cache_path() if path is None else path
     path.parent.mkdir(parents=True, exist_ok=True)
     con = sqlite3.connect(path, timeout=30)
-    con.execute("CREATE TABLE IF NOT EXISTS calibration (key TEXT PRIMARY KEY, errors TEXT, "
+    con.execute("CREATE TABLE IF NOT EXISTS estimates (key TEXT PRIMARY KEY, estimate TEXT, "
                 "created REAL)")
     return con
 
 
-def _cache_get(path: Path | None, key: str) -> dict[str, float] | None:
+def _cache_get(path: Path | None, key: str) -> dict[str, Any] | None:
     with _connect(path) as con:
-        row = con.execute("SELECT errors FROM calibration WHERE key = ?", (key,)).fetchone()
+        row = con.execute("SELECT estimate FROM estimates WHERE key = ?", (key,)).fetchone()
     if row is None:
         return None
-    return {f: (math.inf if v is None else v) for f, v in json.loads(row[0]).items()}
+    hit = json.loads(row[0])
+    hit["errors"] = {f: (math.inf if v is None else v) for f, v in hit["errors"].items()}
+    return hit
 
 
-def _cache_put(path: Path | None, key: str, errors: dict[str, float]) -> None:
-    text = json.dumps({f: (v if math.isfinite(v) else None) for f, v in errors.items()})
+def _cache_put(path: Path | None, key: str, estimate: dict[str, Any]) -> None:
+    errors = {f: (v if math.isfinite(v) else None) for f, v in estimate["errors"].items()}
+    text = json.dumps({**estimate, "errors": errors})
     with _connect(path) as con:
-        con.execute("INSERT OR REPLACE INTO calibration VALUES (?, ?, ?)",
+        con.execute("INSERT OR REPLACE INTO estimates VALUES (?, ?, ?)",
                     (key, text, time.time()))
 
 
@@ -463,7 +459,8 @@ def describe(choice: AutoChoice) -> list[str]:
         lines.append(f"  over the budget on {', '.join(over)}: the levels not left to auto "
                      "already spend it; auto kept the reference level of its stages")
     if choice.calibration_s:
-        lines.append(f"  calibration runs: {choice.calibration_s:.2f} s (cached for next time)")
+        lines.append(f"  estimates computed in {choice.calibration_s:.2f} s (cached for next "
+                     "time)")
     return lines
 
 
