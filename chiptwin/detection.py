@@ -21,11 +21,14 @@ def snr(signal_e: np.ndarray | float, noise_e: np.ndarray | float) -> tuple:
 
     Returns
     -------
-    (snr_power, snr_amplitude) : power ratio Q²/σ² (eq. 22) and amplitude ratio Q/σ.
+    (snr_power, snr_amplitude) : power ratio Q²/σ² (eq. 22) and amplitude ratio Q/σ. Without
+        noise, a signal is infinitely far above it (±inf amplitude), and no signal is not above
+        it at all (0: nothing to detect, not an infinite SNR).
     """
     signal_e, noise_e = np.asarray(signal_e, float), np.asarray(noise_e, float)
     with np.errstate(divide="ignore", invalid="ignore"):
-        amplitude = np.where(noise_e > 0, signal_e / noise_e, np.inf)
+        noiseless = np.where(signal_e == 0, 0.0, np.copysign(np.inf, signal_e))
+        amplitude = np.where(noise_e > 0, signal_e / noise_e, noiseless)
     return amplitude**2, amplitude
 
 

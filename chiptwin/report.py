@@ -162,7 +162,8 @@ def _array_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
 
     a, s = result.arrays, result.scenario
     summary = result.summary["array"]
-    snr_db = 10 * np.log10(np.maximum(a["site_snr_power"], 1e-3))
+    # −30 … 300 dB: a noiseless site's infinite SNR drawn at the top, off any sensor's scale
+    snr_db = np.clip(10 * np.log10(np.maximum(a["site_snr_power"], 1e-3)), -30.0, 300.0)
     rows, cols = np.divmod(a["site_pixel_index"], s.chip.cols)
     fig, ax = plt.subplots(figsize=(6.5, 5.5))
     sc = ax.scatter(cols, rows, c=snr_db, s=max(2.0, 4e4 / len(rows)), marker="s", cmap="viridis")

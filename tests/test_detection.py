@@ -32,3 +32,11 @@ def test_snr_power_is_the_square_of_amplitude():
     power, amplitude = snr(np.array([300.0, 300.0]), np.array([100.0, 0.0]))
     assert power[0] == pytest.approx(9.0) and amplitude[0] == pytest.approx(3.0)
     assert np.isinf(amplitude[1])
+
+
+def test_snr_without_noise():
+    """No noise: a signal is infinitely above it (sign kept), no signal is SNR 0, not inf
+    (a dark, noiseless site was reported "detected")."""
+    power, amplitude = snr(np.array([5.0, -5.0, 0.0, 3.0]), np.array([0.0, 0.0, 0.0, 1.5]))
+    assert list(amplitude) == [np.inf, -np.inf, 0.0, 2.0]
+    assert list(power) == [np.inf, np.inf, 0.0, 4.0]
