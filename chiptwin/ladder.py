@@ -20,6 +20,9 @@ Figures (max over sites, flows and blocks): ``signal_rel`` and ``noise_rel`` (re
 ``snr_rel`` (relative, power SNR) and ``snr_db``, ``flow_value_abs`` (normalised flow values),
 ``calls_diff`` (share of reads that differ from the reference's), ``dsp_lsb`` (DSP outputs at
 the site pixels, in ADC LSB).
+
+When the scene leaves stages to ``auto`` (with ``[run] error_budget``), the levels it picks are
+one more row, ``auto``, with its own error estimate beside the measured one.
 """
 
 from __future__ import annotations
@@ -91,7 +94,7 @@ HARD_CASES: dict[str, HardCase] = {
 class Rung:
     """One row of the ladder."""
 
-    stage: str  # "reference", a stage name, or "cheapest"
+    stage: str  # "reference", a stage name, "cheapest" or "auto"
     level: str  # "kinetics=…, photons=…, …" for the combinations
     fidelity: dict[str, str]
     wall_s: float = math.nan
@@ -99,6 +102,7 @@ class Rung:
     errors: dict[str, dict[str, Any]] = field(default_factory=dict)
     crn: bool = True
     skipped: str = ""
+    estimate: dict[str, float | None] | None = None  # auto's estimated errors
 
 
 def with_levels(s: Scenario, levels: dict[str, str]) -> Scenario:
@@ -140,6 +144,13 @@ def plan(s: Scenario, reference: dict[str, str] | None = None) -> list[Rung]:
     cheapest = {stage: levels[0] for stage, levels in LEVELS.items()}
     rungs.append(Rung("cheapest", _label(cheapest), cheapest,
                       crn=cheapest["photons"] == ref["photons"]))
+    if s.run.fidelity.auto_stages():  # the levels auto picks for the scene's budget
+        from chiptwin.fidelity import resolve
+
+        choice = resolve(s)[1]
+        same = all(choice.levels[st] == ref[st] for st in ("photons", "shot"))
+        rungs.append(Rung("auto", _label(choice.levels), choice.levels, crn=same,
+                          estimate=choice.summary()["fidelity_error_estimate"]))
     for r in rungs:
         try:
             check_consistency(with_levels(s, r.fidelity))
@@ -229,6 +240,8 @@ def _interval(values: list[float]) -> dict[str, float | None]:
 
 def _row(r: Rung) -> dict[str, Any]:
     row = {"stage": r.stage, "level": r.level, "fidelity": r.fidelity, "crn": r.crn}
+    if r.estimate is not None:
+        row["estimate"] = r.estimate
     if r.skipped:
         return {**row, "skipped": r.skipped}
     return {**row, "wall_s": r.wall_s, "speedup": r.speedup, "errors": r.errors}
@@ -269,6 +282,9 @@ def table(ladder: dict[str, Any]) -> str:
         lines.append(f"{r['stage']:10s} {level:34s} {r['wall_s']:8.3f} {r['speedup']:8.2f}  "
                      + "  ".join(cells) + mark)
     lines.append("* draws differ from the reference's: the interval holds the reference's noise")
+    for r in ladder["rows"]:
+        if "estimate" in r:
+            lines.append(f"auto's own estimate of its error: {r['estimate']}")
     return "\n".join(lines)
 
 

@@ -99,3 +99,18 @@ def test_cli_ladder_writes_its_outputs(tmp_path, capsys):
     for bad in (["--replicates", "1"], ["--reference", "dsp=vhdl"]):
         assert main(["ladder", str(path), "--out", str(tmp_path / "x"), *bad]) == 2
         assert not (tmp_path / "x").exists()
+
+
+def test_a_scene_with_auto_stages_gets_an_auto_row(tmp_path, monkeypatch):
+    """The levels auto picks for the scene's budget are one more rung, with auto's estimate."""
+    from chiptwin.fidelity import resolve
+    from tests.conftest import SMALL
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    path = tmp_path / "small.toml"
+    path.write_text(SMALL)
+    s = load_scenario(path, ['run.fidelity.photons="auto"', 'run.fidelity.shot="auto"',
+                             "run.error_budget.snr_rel=0.02"])
+    last = plan(s)[-1]
+    assert last.stage == "auto" and last.fidelity == resolve(s)[1].levels
+    assert last.estimate["snr_rel"] <= 0.02
