@@ -16,7 +16,8 @@ float). For every row:
   times where ``binned`` draws counts) the interval holds the reference's own noise: the
   ``crn`` field of each row says which.
 
-Figures (max over sites, flows and blocks): ``signal_rel`` and ``noise_rel`` (relative),
+Figures (max over sites, flows and blocks; the relative ones over the sites the reference sees
+with power SNR ≥ 100): ``signal_rel`` and ``noise_rel`` (relative),
 ``snr_rel`` (relative, power SNR) and ``snr_db``, ``flow_value_abs`` (normalised flow values),
 ``calls_diff`` (share of reads that differ from the reference's), ``dsp_lsb`` (DSP outputs at
 the site pixels, in ADC LSB).
@@ -173,17 +174,26 @@ def figures(result: Result, e_per_lsb: float) -> dict[str, np.ndarray]:
     return out
 
 
+#: Sites whose relative figures the ladder compares: power SNR ≥ 100 in the reference (signal
+#: 10 σ above the noise), where a relative error is not the noise itself (a blank's is).
+SEEN_SNR_POWER = 100.0
+
+
 def errors(level: dict[str, np.ndarray], ref: dict[str, np.ndarray]) -> dict[str, float]:
-    """Each figure's error against the reference run with the same seed."""
+    """Each figure's error against the reference run with the same seed; relative figures over
+    the sites the reference sees (:data:`SEEN_SNR_POWER`), inf when it sees none."""
+    seen = ref["snr"] >= SEEN_SNR_POWER
+
     def rel(x, y):
-        return float(np.max(np.abs(x - y) / np.abs(y))) if np.all(y != 0) else math.inf
+        x, y = x[seen], y[seen]
+        return float(np.max(np.abs(x - y) / np.abs(y))) if y.size else math.inf
 
     out = {"signal_rel": rel(level["signal"], ref["signal"]),
            "noise_rel": rel(level["noise"], ref["noise"]),
            "snr_rel": rel(level["snr"], ref["snr"])}
     with np.errstate(divide="ignore", invalid="ignore"):
-        db = np.abs(10 * np.log10(level["snr"] / ref["snr"]))
-    out["snr_db"] = float(np.max(db)) if np.all(np.isfinite(db)) else math.inf
+        db = np.abs(10 * np.log10(level["snr"][seen] / ref["snr"][seen]))
+    out["snr_db"] = float(np.max(db)) if db.size and np.all(np.isfinite(db)) else math.inf
     if level["dsp"].shape == ref["dsp"].shape:
         out["dsp_lsb"] = float(np.max(np.abs(level["dsp"] - ref["dsp"]), initial=0.0))
     if "flow_values" in ref:
