@@ -17,7 +17,7 @@ float). For every row:
   ``crn`` field of each row says which.
 
 Figures (max over sites, flows and blocks; the relative ones over the sites the reference sees
-with power SNR ≥ 100): ``signal_rel`` and ``noise_rel`` (relative),
+with power SNR ≥ 10): ``signal_rel`` and ``noise_rel`` (relative),
 ``snr_rel`` (relative, power SNR) and ``snr_db``, ``flow_value_abs`` (normalised flow values),
 ``calls_diff`` (share of reads that differ from the reference's), ``dsp_lsb`` (DSP outputs at
 the site pixels, in ADC LSB).
@@ -174,9 +174,10 @@ def figures(result: Result, e_per_lsb: float) -> dict[str, np.ndarray]:
     return out
 
 
-#: Sites whose relative figures the ladder compares: power SNR ≥ 100 in the reference (signal
-#: 10 σ above the noise), where a relative error is not the noise itself (a blank's is).
-SEEN_SNR_POWER = 100.0
+#: Sites whose relative figures the ladder compares: power SNR ≥ 10 in the reference (the
+#: default detection threshold, ``run.detection_snr_power``): a relative error of a site the
+#: reference does not detect is the noise over the noise.
+SEEN_SNR_POWER = 10.0
 
 
 def errors(level: dict[str, np.ndarray], ref: dict[str, np.ndarray]) -> dict[str, float]:
