@@ -136,9 +136,15 @@ def _num(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def shorten(raw: dict[str, Any], mutated: str) -> dict[str, Any]:
+def shorten(raw: dict[str, Any], mutated: str, max_frames: int | None = None) -> dict[str, Any]:
     """The same scenario over fewer flows and a duration just long enough, leaving the mutated
-    keys (comma-separated) alone: what the property test runs of a valid mutation."""
+    keys (comma-separated) alone: what the property test runs of a valid mutation.
+
+    With ``max_frames``, a pyrosequencing run still longer than that gets flows of fewer whole
+    N-frame blocks (pyro_paper_yield_fast: 8 flows of 60 s at 128 frames/s are 61,696 frames;
+    of 2 s, 2,304), and another assay a duration of fewer blocks: the mutation runs through
+    every stage, not the assay's whole light curve.
+    """
     out = copy.deepcopy(raw)
     keys = set(mutated.split(","))
     a, r = out.get("assay"), out.get("run")
@@ -148,9 +154,38 @@ def shorten(raw: dict[str, Any], mutated: str) -> dict[str, Any]:
         n, period, start = a.get("n_flows", 16), a.get("flow_period_s", 60.0), a.get("start_s", 0)
         if not keys & {"assay", "assay.n_flows"} and _num(n):
             n = a["n_flows"] = min(int(n), SHORT_FLOWS)
+        if max_frames and not keys & {"assay", "assay.flow_period_s"}:
+            period = _fewer_blocks(out, keys, max_frames, n, period, start)
+            a["flow_period_s"] = period
         if _num(n) and _num(period) and _num(start):
             r["duration_s"] = start + n * period
+    elif max_frames and _num(a.get("start_s", 0)) and _num(r.get("duration_s")):
+        start = a.get("start_s", 0)
+        r["duration_s"] = start + _fewer_blocks(out, keys, max_frames, 1, r["duration_s"] - start,
+                                                start)
     return out
+
+
+def _fewer_blocks(raw: dict[str, Any], keys: set[str], max_frames: int, n: Any, span: Any,
+                  start: Any) -> Any:
+    """``span`` (s, ``n`` times after ``start``) cut to whole N-frame blocks so that the run
+    keeps within ``max_frames`` frames; unchanged when it does, or when the timing is mutated."""
+    chip = raw.get("chip", {})
+    dsp = chip.get("dsp", {}) if isinstance(chip, dict) else {}
+    timing = chip.get("timing", {}) if isinstance(chip, dict) else {}
+    if not isinstance(dsp, dict) or not isinstance(timing, dict):
+        return span
+    frame, blocks = timing.get("frame_period_s", 1.0), dsp.get("average_frames", 4)
+    timing_keys = {"chip", "chip.timing", "chip.timing.frame_period_s", "chip.dsp",
+                   "chip.dsp.average_frames", "assay.start_s", "assay"}
+    if keys & timing_keys or not all(_num(v) and v > 0 for v in (frame, blocks, n, span)) \
+            or not _num(start) or isinstance(blocks, float):
+        return span
+    block_s = blocks * frame
+    fit = int((max_frames * frame - start) / (n * block_s))
+    if span * n + start <= max_frames * frame or fit < 1 or fit * block_s >= span:
+        return span
+    return fit * block_s
 
 
 # --- writing TOML ----------------------------------------------------------------------------
