@@ -269,6 +269,10 @@ def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> st
     lines += ["| quantity | value |", "|---|---|"]
     lines += [f"| {k} | {v} |" for k, v in headline(summary)]
     lines += ["", "Fidelity: " + ", ".join(f"{k} = {v}" for k, v in summary["fidelity"].items())]
+    if "fidelity_reason" in summary:  # auto: why each level, and the error it estimates
+        lines += ["", f"`auto` fidelity, error budget {summary['error_budget']}, estimated "
+                  f"error against the reference {summary['fidelity_error_estimate']}:", ""]
+        lines += [f"- {stage}: {why}" for stage, why in summary["fidelity_reason"].items()]
     lines += ["", f"SNR: {summary['snr_definition']}", ""]
     lines += [f"![{cap}]({name})\n\n*{cap}*\n" for name, cap in plots]
     return "\n".join(lines) + "\n"
@@ -277,6 +281,9 @@ def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> st
 def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
     """The compact table printed by the CLI and put at the top of report.md."""
     rows = [("wall time", f"{summary['wall_time_s']:.2f} s"), ("seed", str(summary["seed"]))]
+    if "fidelity_reason" in summary:
+        rows.append(("fidelity (auto)", ", ".join(f"{k}={v}" for k, v in
+                                                  summary["fidelity"].items())))
     if not summary["results_valid"]:
         rows.append(("RESULTS NOT VALID", "the chip flagged " + ", ".join(
             summary["chip"]["flags"]) + ": figures below are what the chip would report"))

@@ -4,6 +4,7 @@ the faithful one."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -254,3 +255,17 @@ def test_a_study_resolves_auto_once_per_point_and_runs_the_level_it_picks(tmp_pa
     key = lambda r: (r["point"], r["kind"], r["replicate"])  # noqa: E731
     assert [r["metrics"] for r in sorted(table, key=key)] == [
         r["metrics"] for r in sorted(same, key=key)]
+
+
+def test_a_run_with_auto_says_why_in_summary_and_report(tmp_path):
+    out = tmp_path / "out"
+    args = ["run", str(SCENARIOS / "pyro_1fmol.toml"), "--out", str(out), "--quiet"]
+    for text in [*REDUCED["pyro_1fmol"], 'run.fidelity.photons="auto"',
+                 "run.error_budget.snr_rel=0.01"]:
+        args += ["--set", text]
+    assert main(args) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["fidelity"]["photons"] == "binned"
+    assert "not expected" in summary["fidelity_reason"]["photons"]
+    assert summary["fidelity_error_estimate"]["snr_rel"] <= 0.01
+    assert "`auto` fidelity" in (out / "report.md").read_text()
