@@ -120,22 +120,25 @@ def bench_steps(name: str, seeds: int) -> None:
           f"outputs {'identical' if same else 'DIFFER'}")
 
 
-def profile(name: str) -> None:
-    """Warm ``stage_time_s`` of the run's stages, full path against every shortcut that applies
-    (carried dark pixels where it does, the trace without frame steps everywhere)."""
+def profile(name: str, repeats: int) -> None:
+    """Warm ``stage_time_s`` of the run's stages (the median of ``repeats`` runs), full path
+    against every shortcut that applies (carried dark pixels where it does, the trace without
+    frame steps everywhere)."""
     s = load_scenario(ROOT / f"{name}.toml")
     rows = {}
-    for label, carry, steps in (("full", False, True), ("full", False, True),
-                                ("shortcuts", True, False), ("shortcuts", True, False)):
-        timer = StageTimer()  # the second run of each is the warm one kept
-        t0 = time.perf_counter()
-        scene = prepare(s, timer)
-        out = simulate(s, scene, s.run.fidelity.photons, stage_rng(s.scenario.seed, "pixel"),
-                       Recorder(frame_steps=steps), timer, sites=stages.site_pixel_indices(s),
-                       carry_dark=carry)
-        with timer("detection"):
-            detect(s, scene, out)
-        rows[label] = (time.perf_counter() - t0, dict(timer.seconds))
+    for label, carry, steps in (("full", False, True), ("shortcuts", True, False)):
+        runs = []
+        for _ in range(1 + repeats):  # the first (cold) run is dropped
+            timer = StageTimer()
+            t0 = time.perf_counter()
+            scene = prepare(s, timer)
+            out = simulate(s, scene, s.run.fidelity.photons,
+                           stage_rng(s.scenario.seed, "pixel"), Recorder(frame_steps=steps),
+                           timer, sites=stages.site_pixel_indices(s), carry_dark=carry)
+            with timer("detection"):
+                detect(s, scene, out)
+            runs.append((time.perf_counter() - t0, dict(timer.seconds)))
+        rows[label] = sorted(runs[1:], key=lambda r: r[0])[len(runs[1:]) // 2]  # the median
     for label, (wall, st) in rows.items():
         stages_s = "  ".join(f"{k} {v:.3f}" for k, v in st.items())
         print(f"{name:24s} {label:9s} {wall:8.3f} s   {stages_s}")
@@ -152,7 +155,7 @@ def main() -> None:
     args = p.parse_args()
     for name in args.scenarios:
         if args.profile:
-            profile(name)
+            profile(name, args.seeds)
             continue
         if args.only != "steps":
             bench(name, args.seeds)
