@@ -95,6 +95,20 @@ def test_carried_run_has_the_full_paths_moments_trace_and_flags(wide):
     assert full.carried_pixels == 0 and cut.carried_pixels > 0
 
 
+def test_fixed_dsp_overflow_counts_are_the_full_paths(wide):
+    """The bit-accurate DSP: its overflow counts (the drawn pixels' on the shortcut) and the
+    moments are the full path's."""
+    from dataclasses import replace
+
+    s, scene, idx = wide
+    fixed = replace(s, chip=replace(s.chip, dsp=replace(s.chip.dsp, mode="fixed")))
+    full, cut = (simulate(fixed, scene, "binned", stage_rng(1, "pixel"), Recorder(), sites=idx,
+                          carry_dark=carry) for carry in (False, True))
+    assert full.dsp.level == cut.dsp.level == "fixed"
+    assert cut.dsp.overflow == full.dsp.overflow
+    np.testing.assert_allclose(cut.var_e2, full.var_e2, rtol=1e-12)
+
+
 def test_sites_have_the_full_paths_law(wide):
     s, _, idx = wide
     z = {}
