@@ -323,8 +323,11 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
                      f"{c['after_db_median']:+.1f} dB after the equalizer (predicted "
                      f"{c['after_predicted_db_median']:+.1f}); SNR cost "
                      f"{c['snr_cost_db_median']:.1f} dB"))
-        rows.append(("neighbours resolved", f"from {c['min_pitch_um_with']:.0f} µm pitch with "
-                     f"the equalizer, {c['min_pitch_um_without']:.0f} µm without"))
+        w, wo = c["min_pitch_um_with"], c["min_pitch_um_without"]  # None: at no scanned pitch
+        rows.append(("neighbours resolved",
+                     (f"from {w:.0f} µm pitch" if w is not None else "at no scanned pitch")
+                     + " with the equalizer, "
+                     + (f"{wo:.0f} µm without" if wo is not None else "at none without")))
     c = summary.get("column_profile", {})
     if c.get("valley_to_peak_before") is not None and c.get("valley_to_peak_after") is not None:
         rows.append(("valley / peak", f"{c['valley_to_peak_before']:.3g} before, "

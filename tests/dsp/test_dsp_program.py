@@ -359,3 +359,19 @@ def test_column_profile_plot_without_light_at_the_sites(tmp_path):
         summary={"column_profile": {"valley_to_peak_before": None, "valley_to_peak_after": None}})
     assert [name for name, _ in program_plots(result, tmp_path)] == ["column_profile.png"]
     assert (tmp_path / "column_profile.png").stat().st_size > 0
+
+
+def test_headline_when_no_scanned_pitch_resolves_neighbours(small_toml):
+    """Found by an optics sweep of crosstalk_microarray (``sites.height_um = 1e4``): no pitch of
+    the scan resolves a neighbour, minimum_pitch gives None, and the headline's ``None:.0f``
+    failed the report after the run (TypeError, exit 1). It says so instead."""
+    from chiptwin.report import headline
+
+    cross = {"before_db_median": 2.0, "after_db_median": -1.0, "after_predicted_db_median": -1.0,
+             "snr_cost_db_median": 3.0, "min_pitch_um_with": None, "min_pitch_um_without": None}
+    summary = {**run(small_toml).summary, "crosstalk": cross}
+    rows = dict(headline(summary))
+    assert rows["neighbours resolved"] == "at no scanned pitch with the equalizer, at none without"
+    cross.update(min_pitch_um_with=98.2, min_pitch_um_without=303.2)
+    assert dict(headline(summary))["neighbours resolved"] == (
+        "from 98 µm pitch with the equalizer, 303 µm without")
