@@ -22,8 +22,10 @@ with power SNR ≥ 10): ``signal_rel`` and ``noise_rel`` (relative),
 ``calls_diff`` (share of reads that differ from the reference's), ``dsp_lsb`` (DSP outputs at
 the site pixels, in ADC LSB).
 
-When the scene leaves stages to ``auto`` (with ``[run] error_budget``), the levels it picks are
-one more row, ``auto``, with its own error estimate beside the measured one.
+The ``shortcut`` row runs the reference's levels at ``binned`` photons with the carried-dark-pixels
+shortcut (:mod:`chiptwin.shortcuts`). When the scene leaves stages to ``auto`` (with ``[run]
+error_budget``), the levels it picks are one more row, ``auto``, with its own error estimate
+beside the measured one.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from chiptwin import shortcuts
 from chiptwin.config import Scenario, ScenarioError
 from chiptwin.config.consistency import check_consistency
 from chiptwin.run import Result, chip_sensor, run
@@ -104,6 +107,7 @@ class Rung:
     crn: bool = True
     skipped: str = ""
     estimate: dict[str, float | None] | None = None  # auto's estimated errors
+    carry_dark: bool = False  # the carried-dark-pixels shortcut (chiptwin.shortcuts)
 
 
 def with_levels(s: Scenario, levels: dict[str, str]) -> Scenario:
@@ -145,6 +149,12 @@ def plan(s: Scenario, reference: dict[str, str] | None = None) -> list[Rung]:
     cheapest = {stage: levels[0] for stage, levels in LEVELS.items()}
     rungs.append(Rung("cheapest", _label(cheapest), cheapest,
                       crn=cheapest["photons"] == ref["photons"]))
+    binned = {**ref, "photons": "binned"}  # the shortcut that skips the dark pixels' draws
+    rungs.append(Rung("shortcut", "carry_dark_pixels (photons=binned)", binned, crn=False,
+                      carry_dark=True))
+    if not shortcuts.applies(with_levels(s, binned), "binned", np.zeros(1), False, False):
+        rungs[-1].skipped = ("the shortcut needs the default DSP program and no rtl, acc_bits "
+                             "or report_error (chiptwin.shortcuts)")
     if s.run.fidelity.auto_stages():  # the levels auto picks for the scene's budget
         from chiptwin.fidelity import resolve
 
@@ -218,6 +228,8 @@ def run_ladder(s: Scenario, replicates: int = 5, reference: dict[str, str] | Non
         if rung.skipped:
             continue
         sv = with_levels(s, rung.fidelity)
+        if rung.carry_dark:
+            sv = replace(sv, run=replace(sv.run, carry_dark_pixels=True))
         run(sv)  # warm-up: compile and cache what this level needs
         walls, errs = [], []
         for k, seed in enumerate(seeds):

@@ -87,7 +87,7 @@ def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
     t_start = time.perf_counter() if t_start is None else t_start
     timer = timer or StageTimer()
     rec = Recorder()
-    frames_path = _frames_file() if getattr(s.run, "save_frames", False) else None
+    frames_path = _frames_file() if s.run.save_frames else None
     out = simulate(s, scene, s.run.fidelity.photons, stage_rng(s.scenario.seed, "pixel"), rec,
                    timer, progress, sites=stages.site_pixel_indices(s), frames_path=frames_path)
     with timer("detection"):
@@ -106,6 +106,16 @@ def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
         warnings=scenario_warnings(s),
         **(choice.summary() if choice else {}),
     )
+    if s.run.carry_dark_pixels:
+        applies = shortcuts.applies(s, s.run.fidelity.photons, out.pixels, False,
+                                    frames_path is not None)
+        summary["shortcuts"] = {"carry_dark_pixels": {
+            "applies": applies, "carried_pixels": int(out.carried_pixels),
+            "of_pixels": scene.n_pixels,
+            "note": "carried pixels are at the expected level; the sites' outputs have the full "
+                    "path's law, not its bits" if applies else
+                    "not applied: binned photons, the default DSP program (no rtl, acc_bits, "
+                    "report_error) and no save_frames are needed (chiptwin.shortcuts)"}}
     return Result(summary=summary, arrays=arrays, trace=rec, scenario=s, frames_path=frames_path)
 
 
@@ -184,7 +194,7 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
     timer = timer or StageTimer()
     keep = None if sites is None else np.unique(np.asarray(sites, dtype=np.int64))
     if carry_dark is None:
-        carry_dark = bool(getattr(s.run, shortcuts.CARRY_DARK_PIXELS_OPTION, False))
+        carry_dark = s.run.carry_dark_pixels
     split = None
     saving = frames_path is not None
     if carry_dark and shortcuts.applies(s, photons_level, keep, keep_codes, saving):

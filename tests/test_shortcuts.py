@@ -264,3 +264,18 @@ def test_block_get_is_one_get_per_frame(name, monkeypatch, tmp_path):
                                            b.chip.end_ns, b.chip.unprocessed_frames)
     assert [ks for ks, _ in a.chip.outputs] == [ks for ks, _ in b.chip.outputs]
     np.testing.assert_array_equal(a.value_e, b.value_e)
+
+
+def test_the_scenario_key_turns_it_on_and_the_summary_says_so():
+    """``[run] carry_dark_pixels = true``: the summary counts the carried pixels, or says the
+    shortcut does not apply (the events level) and carries none."""
+    from chiptwin.run import run
+    from tests.conftest import REDUCED, SCENARIOS
+
+    sets = [*REDUCED["pyro_1fmol"], "run.carry_dark_pixels=true"]
+    on = run(load_scenario(SCENARIOS / "pyro_1fmol.toml", sets)).summary["shortcuts"]
+    assert on["carry_dark_pixels"]["applies"] and on["carry_dark_pixels"]["carried_pixels"] > 0
+    events = run(load_scenario(SCENARIOS / "pyro_1fmol.toml",
+                               [*sets, 'run.fidelity.photons="events"'])).summary["shortcuts"]
+    assert not events["carry_dark_pixels"]["applies"]
+    assert events["carry_dark_pixels"]["carried_pixels"] == 0

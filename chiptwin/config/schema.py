@@ -396,6 +396,10 @@ class Run:
             "exponential decay (pyrosequencing k_a, ATP turnover)")
     save_frames: bool = param(
         False, kind=bool, doc="stream every frame as read to frames.npy in the output folder")
+    carry_dark_pixels: bool = param(
+        False, kind=bool,
+        doc="binned level: carry pixels that see no site light (≤ 0.1 of their noise) at the "
+            "expected level instead of drawing them (chiptwin.shortcuts; same law, other draws)")
     fidelity: Fidelity = field(default_factory=Fidelity)
     error_budget: ErrorBudget = field(default_factory=ErrorBudget)
 
