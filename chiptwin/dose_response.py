@@ -239,6 +239,8 @@ def _lod(amounts, expected, stats, threshold, slope_e_per_amol) -> dict[str, Any
     if "threshold_measured_e" in stats:
         t, t_se = stats["threshold_measured_e"], stats["threshold_measured_se_e"]
         # the response is linear: the LoD's standard error is the threshold's over the slope
+        # (none: no amount gives a signal, e.g. a 1 e⁻ full well, so no amount is detected)
+        se = t_se / slope_e_per_amol if slope_e_per_amol > 0 else math.inf
         out.update(lod_from_blank_spread_amol=interpolate_lod(amounts, expected, t),
-                   lod_from_blank_spread_se_amol=t_se / slope_e_per_amol)
+                   lod_from_blank_spread_se_amol=se)
     return out

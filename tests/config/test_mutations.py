@@ -295,3 +295,17 @@ def test_subnormal_footprint_is_a_point_source():
     point = coupling_psf(**grid)
     for r in (5e-324, 1e-310):
         assert np.allclose(coupling_psf(**grid, site_radius_um=r), point, rtol=1e-9, atol=0)
+
+
+def test_dose_response_without_a_slope_has_no_lod_error():
+    """Found by a pixel sweep of atp_dose_response (``chip.pixel.full_well_e = 1``: every pixel
+    clips, no amount gives a signal): the LoD's standard error divided by the slope 0
+    (ZeroDivisionError after the run, exit 1). With no slope it is infinite."""
+    from chiptwin.dose_response import _lod
+
+    amounts, expected = np.array([1.0, 2.0]), np.zeros(2)
+    stats = {"threshold_measured_e": 3.0, "threshold_measured_se_e": 0.5}
+    out = _lod(amounts, expected, stats, 3.0, 0.0)
+    assert out["lod_from_blank_spread_se_amol"] == math.inf
+    assert _lod(amounts, np.array([2.0, 4.0]), stats, 3.0, 2.0)[
+        "lod_from_blank_spread_se_amol"] == 0.25
