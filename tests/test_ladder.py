@@ -114,3 +114,13 @@ def test_a_scene_with_auto_stages_gets_an_auto_row(tmp_path, monkeypatch):
     last = plan(s)[-1]
     assert last.stage == "auto" and last.fidelity == resolve(s)[1].levels
     assert last.estimate["snr_rel"] <= 0.02
+
+
+def test_snr_bias_is_the_systematic_part(ladder):
+    """The reference's own bias is 0; na2 draws like the reference (common random numbers), so
+    its bias is its per-replicate SNR error, the same each seed."""
+    _, lad = ladder
+    rows = {(r["stage"], r["level"]): r for r in lad["rows"] if "errors" in r}
+    assert rows[("reference", lad["rows"][0]["level"])]["errors"]["snr_bias"]["value"] == 0
+    na2 = rows[("optics", "na2")]["errors"]
+    assert na2["snr_bias"]["value"] == pytest.approx(na2["snr_rel"]["value"], rel=0.02)
