@@ -2,7 +2,7 @@
 
 A ``[run.fidelity]`` key set to ``"auto"`` is resolved before the run (SPEC "Speed against
 error"). The error of a level is taken against the stage's most faithful level the scene accepts
-(the ladder's reference, :func:`chiptwin.ladder.reference_levels`), figure by figure (the ones
+(the ladder's reference, :func:`reference_levels`), figure by figure (the ones
 ``[run] error_budget`` names, :data:`chiptwin.config.schema.BUDGET_FIGURES`):
 
 * **kinetics** (closed_form vs cascade) and **optics** (na2 vs psf): a calibration, the scene
@@ -43,7 +43,7 @@ import json
 import math
 import sqlite3
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +54,15 @@ from chiptwin import __version__
 from chiptwin.config import Scenario, ScenarioError
 from chiptwin.config.consistency import check_consistency
 from chiptwin.config.schema import BUDGET_FIGURES
+
+#: The levels of each stage, cheapest first (raytrace is not built: the ladder skips it).
+LEVELS: dict[str, tuple[str, ...]] = {
+    "kinetics": ("closed_form", "cascade"),
+    "photons": ("expected", "binned", "events"),
+    "optics": ("na2", "psf"),
+    "shot": ("gaussian", "poisson"),
+    "dsp": ("float", "fixed", "rtl"),
+}
 
 #: The order stages are chosen in: the largest saving first (ladder of pyro_1fmol: cascade
 #: 2.6×, rtl DSP and events photons next; optics and shot noise save least).
@@ -70,6 +79,27 @@ FIGURES = tuple(BUDGET_FIGURES)
 #: Above this mean the TV distance is scaled as 1/√λ from its value here (the Edgeworth term:
 #: the normal misses the Poisson skewness 1/√λ), instead of summed over ≈ 80 √λ counts. Unit: e⁻.
 TV_SUM_MAX_MEAN = 1e6
+
+
+def with_levels(s: Scenario, levels: dict[str, str]) -> Scenario:
+    """``s`` at the given stage levels (the DSP level set on the chip, as ``chip.dsp.mode``)."""
+    fid = replace(s.run.fidelity, **{k: v for k, v in levels.items() if k != "dsp"}, dsp="")
+    chip = replace(s.chip, dsp=replace(s.chip.dsp, mode=levels.get("dsp", s.dsp_level)))
+    return replace(s, run=replace(s.run, fidelity=fid), chip=chip)
+
+
+def reference_levels(s: Scenario) -> dict[str, str]:
+    """The most faithful level of each stage that this scene accepts."""
+    out = {}
+    for stage, levels in LEVELS.items():
+        for level in reversed(levels):
+            try:
+                check_consistency(with_levels(s, {**out, stage: level}))
+            except ScenarioError:
+                continue
+            out[stage] = level
+            break
+    return out
 
 
 def gaussian_tv(lam: float) -> float:
@@ -135,8 +165,6 @@ def resolve(s: Scenario, cache: Path | None = None) -> tuple[Scenario, AutoChoic
     auto = s.run.fidelity.auto_stages()
     if not auto:
         return s, None
-    from chiptwin.ladder import LEVELS, reference_levels, with_levels
-
     budget = s.run.error_budget.items()
     ref = reference_levels(s)
     estimator = _Estimator(s, ref, cache)
@@ -308,7 +336,6 @@ class _Estimator:
         bin_rows, fir8, wiener: coefficient quantisation and rounding, which depend on the
         data), from one fixed-point run of the scene with ``report_error``. The chain's
         own bound is not in it (that is :func:`_rounding_bound_lsb`)."""
-        from chiptwin.ladder import with_levels
         from chiptwin.run import run
 
         sv = with_levels(self.s, {**self.ref, "photons": "binned", "dsp": "fixed"})
@@ -329,7 +356,6 @@ class _Estimator:
 
     def _min_site_mean_e(self) -> float:
         from chiptwin import stages
-        from chiptwin.ladder import with_levels
         from chiptwin.run import prepare
 
         s = with_levels(self.s, self._expected_levels())
@@ -348,7 +374,7 @@ def _expected_figures(s: Scenario, levels: dict[str, str]):
     the chain's output and electrons per LSB."""
     from chiptwin import stages
     from chiptwin.chip import Recorder
-    from chiptwin.ladder import figures, with_levels
+    from chiptwin.ladder import figures
     from chiptwin.results import detect
     from chiptwin.run import Result, prepare, simulate, stage_rng
 
@@ -387,8 +413,6 @@ def _rounding_bound_lsb(chain, m: int, k: int, n: int) -> float:
 def _cross_talk_share(s: Scenario) -> float:
     """The largest share of a site pixel's light that comes from other sites (psf coupling)."""
     from chiptwin import stages
-    from chiptwin.ladder import with_levels
-
     c = stages.coupling(with_levels(s, {"optics": "psf"}))
     idx = stages.site_pixel_indices(s)
     rows = c[idx]

@@ -42,17 +42,10 @@ import numpy as np
 from chiptwin import shortcuts
 from chiptwin.config import Scenario, ScenarioError
 from chiptwin.config.consistency import check_consistency
+from chiptwin.fidelity import LEVELS, reference_levels, with_levels
 from chiptwin.run import Result, chip_sensor, run
 from chiptwin.study.stats import mean_estimate
 
-#: The levels of each stage, cheapest first (raytrace is not built: the ladder skips it).
-LEVELS: dict[str, tuple[str, ...]] = {
-    "kinetics": ("closed_form", "cascade"),
-    "photons": ("expected", "binned", "events"),
-    "optics": ("na2", "psf"),
-    "shot": ("gaussian", "poisson"),
-    "dsp": ("float", "fixed", "rtl"),
-}
 #: Stages whose levels all draw the same random numbers for the same seed (the photon levels
 #: draw differently: none, counts, arrival times; the shot levels a normal or a Poisson count).
 SAME_DRAWS = frozenset({"kinetics", "optics", "dsp"})
@@ -110,27 +103,6 @@ class Rung:
     skipped: str = ""
     estimate: dict[str, float | None] | None = None  # auto's estimated errors
     carry_dark: bool = False  # the carried-dark-pixels shortcut (chiptwin.shortcuts)
-
-
-def with_levels(s: Scenario, levels: dict[str, str]) -> Scenario:
-    """``s`` at the given stage levels (the DSP level set on the chip, as ``chip.dsp.mode``)."""
-    fid = replace(s.run.fidelity, **{k: v for k, v in levels.items() if k != "dsp"}, dsp="")
-    chip = replace(s.chip, dsp=replace(s.chip.dsp, mode=levels.get("dsp", s.dsp_level)))
-    return replace(s, run=replace(s.run, fidelity=fid), chip=chip)
-
-
-def reference_levels(s: Scenario) -> dict[str, str]:
-    """The most faithful level of each stage that this scene accepts."""
-    out = {}
-    for stage, levels in LEVELS.items():
-        for level in reversed(levels):
-            try:
-                check_consistency(with_levels(s, {**out, stage: level}))
-            except ScenarioError:
-                continue
-            out[stage] = level
-            break
-    return out
 
 
 def _label(levels: dict[str, str]) -> str:
