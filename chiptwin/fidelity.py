@@ -102,6 +102,48 @@ def reference_levels(s: Scenario) -> dict[str, str]:
     return out
 
 
+def figures(sm: dict[str, Any], a: dict[str, np.ndarray], e_per_lsb: float
+            ) -> dict[str, np.ndarray]:
+    """The headline figures of one run (its summary and arrays) that the ladder and the
+    calibrations compare between levels."""
+    out = {name: np.array([site[key] for site in sm["sites"]]) for name, key in
+           (("signal", "signal_e"), ("noise", "noise_e"), ("snr", "snr_power"))}
+    out["dsp"] = a["site_signal_e"] / e_per_lsb
+    if "flow_values" in a:
+        out["flow_values"] = a["flow_values"]
+        out["reads"] = np.array(sm["called_sequences"])
+    return out
+
+
+#: Sites whose relative figures the ladder compares: power SNR ≥ 10 in the reference (the
+#: default detection threshold, ``run.detection_snr_power``): a relative error of a site the
+#: reference does not detect is the noise over the noise.
+SEEN_SNR_POWER = 10.0
+
+
+def figure_errors(level: dict[str, np.ndarray], ref: dict[str, np.ndarray]) -> dict[str, float]:
+    """Each figure's error against the reference run with the same seed; relative figures over
+    the sites the reference sees (:data:`SEEN_SNR_POWER`), inf when it sees none."""
+    seen = ref["snr"] >= SEEN_SNR_POWER
+
+    def rel(x, y):
+        x, y = x[seen], y[seen]
+        return float(np.max(np.abs(x - y) / np.abs(y))) if y.size else math.inf
+
+    out = {"signal_rel": rel(level["signal"], ref["signal"]),
+           "noise_rel": rel(level["noise"], ref["noise"]),
+           "snr_rel": rel(level["snr"], ref["snr"])}
+    with np.errstate(divide="ignore", invalid="ignore"):
+        db = np.abs(10 * np.log10(level["snr"][seen] / ref["snr"][seen]))
+    out["snr_db"] = float(np.max(db)) if db.size and np.all(np.isfinite(db)) else math.inf
+    if level["dsp"].shape == ref["dsp"].shape:
+        out["dsp_lsb"] = float(np.max(np.abs(level["dsp"] - ref["dsp"]), initial=0.0))
+    if "flow_values" in ref:
+        out["flow_value_abs"] = float(np.max(np.abs(level["flow_values"] - ref["flow_values"])))
+        out["calls_diff"] = float(np.mean(level["reads"] != ref["reads"]))
+    return out
+
+
 def gaussian_tv(lam: float) -> float:
     """Total-variation distance between Poisson(λ) and ``max(0, rint(λ + √λ·z))``, z ~ N(0, 1).
 
@@ -209,9 +251,9 @@ def resolve(s: Scenario, cache: Path | None = None) -> tuple[Scenario, AutoChoic
     return resolved, choice
 
 
-def _add(total: dict[str, float], errors: dict[str, float]) -> None:
+def _add(total: dict[str, float], spent: dict[str, float]) -> None:
     for f in total:
-        total[f] += errors.get(f, math.inf)
+        total[f] += spent.get(f, math.inf)
 
 
 def _fmt(v: float) -> str:
@@ -259,8 +301,6 @@ class _Estimator:
                         f"{_cross_talk_share(self.s):.3g} of their light")
 
     def _calibrated(self, stage: str, level: str, how: str) -> Estimate:
-        from chiptwin.ladder import errors as figure_errors
-
         base = self._expected_levels()
         runs = [_expected_figures(self.s, {**base, stage: lv}) for lv in (level, self.ref[stage])]
         measured = figure_errors(runs[0][0], runs[1][0])
@@ -374,9 +414,8 @@ def _expected_figures(s: Scenario, levels: dict[str, str]):
     the chain's output and electrons per LSB."""
     from chiptwin import stages
     from chiptwin.chip import Recorder
-    from chiptwin.ladder import figures
     from chiptwin.results import detect
-    from chiptwin.run import Result, prepare, simulate, stage_rng
+    from chiptwin.run import prepare, simulate, stage_rng
 
     sv = with_levels(s, levels)
     scene = prepare(sv)
@@ -384,14 +423,14 @@ def _expected_figures(s: Scenario, levels: dict[str, str]):
                    sites=stages.site_pixel_indices(sv))
     summary, arrays = detect(sv, scene, out)
     e_per_lsb = scene.sensor.e_per_lsb
-    return figures(Result(summary, arrays, Recorder(), sv), e_per_lsb), summary, out, e_per_lsb
+    return figures(summary, arrays, e_per_lsb), summary, out, e_per_lsb
 
 
-def _with_snr(errors: dict[str, float]) -> dict[str, float]:
+def _with_snr(spent: dict[str, float]) -> dict[str, float]:
     """Add ``snr_rel`` (power SNR S²/N²) and ``snr_db`` from the signal and noise errors."""
-    s, n = errors["signal_rel"], errors["noise_rel"]
+    s, n = spent["signal_rel"], spent["noise_rel"]
     snr_rel = (1 + s) ** 2 / (1 - n) ** 2 - 1 if n < 1 else math.inf
-    return {**errors, "snr_rel": snr_rel, "snr_db": 10 * math.log10(1 + snr_rel)}
+    return {**spent, "snr_rel": snr_rel, "snr_db": 10 * math.log10(1 + snr_rel)}
 
 
 def _rounding_bound_lsb(chain, m: int, k: int, n: int) -> float:

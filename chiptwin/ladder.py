@@ -42,8 +42,15 @@ import numpy as np
 from chiptwin import shortcuts
 from chiptwin.config import Scenario, ScenarioError
 from chiptwin.config.consistency import check_consistency
-from chiptwin.fidelity import LEVELS, reference_levels, with_levels
-from chiptwin.run import Result, chip_sensor, run
+from chiptwin.fidelity import (
+    LEVELS,
+    SEEN_SNR_POWER,
+    figure_errors,
+    figures,
+    reference_levels,
+    with_levels,
+)
+from chiptwin.run import chip_sensor, run
 from chiptwin.study.stats import mean_estimate
 
 #: Stages whose levels all draw the same random numbers for the same seed (the photon levels
@@ -146,47 +153,6 @@ def plan(s: Scenario, reference: dict[str, str] | None = None) -> list[Rung]:
     return rungs
 
 
-def figures(result: Result, e_per_lsb: float) -> dict[str, np.ndarray]:
-    """The headline figures of one run that the ladder compares."""
-    sm, a = result.summary, result.arrays
-    out = {name: np.array([site[key] for site in sm["sites"]]) for name, key in
-           (("signal", "signal_e"), ("noise", "noise_e"), ("snr", "snr_power"))}
-    out["dsp"] = a["site_signal_e"] / e_per_lsb
-    if "flow_values" in a:
-        out["flow_values"] = a["flow_values"]
-        out["reads"] = np.array(sm["called_sequences"])
-    return out
-
-
-#: Sites whose relative figures the ladder compares: power SNR ≥ 10 in the reference (the
-#: default detection threshold, ``run.detection_snr_power``): a relative error of a site the
-#: reference does not detect is the noise over the noise.
-SEEN_SNR_POWER = 10.0
-
-
-def errors(level: dict[str, np.ndarray], ref: dict[str, np.ndarray]) -> dict[str, float]:
-    """Each figure's error against the reference run with the same seed; relative figures over
-    the sites the reference sees (:data:`SEEN_SNR_POWER`), inf when it sees none."""
-    seen = ref["snr"] >= SEEN_SNR_POWER
-
-    def rel(x, y):
-        x, y = x[seen], y[seen]
-        return float(np.max(np.abs(x - y) / np.abs(y))) if y.size else math.inf
-
-    out = {"signal_rel": rel(level["signal"], ref["signal"]),
-           "noise_rel": rel(level["noise"], ref["noise"]),
-           "snr_rel": rel(level["snr"], ref["snr"])}
-    with np.errstate(divide="ignore", invalid="ignore"):
-        db = np.abs(10 * np.log10(level["snr"][seen] / ref["snr"][seen]))
-    out["snr_db"] = float(np.max(db)) if db.size and np.all(np.isfinite(db)) else math.inf
-    if level["dsp"].shape == ref["dsp"].shape:
-        out["dsp_lsb"] = float(np.max(np.abs(level["dsp"] - ref["dsp"]), initial=0.0))
-    if "flow_values" in ref:
-        out["flow_value_abs"] = float(np.max(np.abs(level["flow_values"] - ref["flow_values"])))
-        out["calls_diff"] = float(np.mean(level["reads"] != ref["reads"]))
-    return out
-
-
 def run_ladder(s: Scenario, replicates: int = 5, reference: dict[str, str] | None = None,
                progress=None) -> dict[str, Any]:
     """Run every rung of the ladder on ``replicates`` seeds; returns the ``ladder.json`` dict."""
@@ -209,10 +175,10 @@ def run_ladder(s: Scenario, replicates: int = 5, reference: dict[str, str] | Non
         for k, seed in enumerate(seeds):
             result = run(sv, seed=seed)
             walls.append(result.summary["wall_time_s"])
-            fig = figures(result, e_per_lsb)
+            fig = figures(result.summary, result.arrays, e_per_lsb)
             if rung.stage == "reference":
                 ref_figures.append(fig)
-            errs.append(errors(fig, ref_figures[k]))
+            errs.append(figure_errors(fig, ref_figures[k]))
             seen = ref_figures[0]["snr"] >= SEEN_SNR_POWER
             snr_diffs.append(fig["snr"][seen] / ref_figures[k]["snr"][seen] - 1)
         rung.wall_s = statistics.median(walls)

@@ -69,14 +69,17 @@ def _scene(task: RowTask, s: Scenario):
     from chiptwin.fidelity import resolve
     from chiptwin.run import chip_sensor, prepare
 
-    cached = _SCENES.get(task.point)
+    # keyed by the point's whole scenario (its seed aside): a point hash names the axis values
+    # only, and two studies run in one process (tests, a notebook) may share one
+    key = repr(replace(task.scenario, scenario=replace(task.scenario.scenario, seed=0)))
+    cached = _SCENES.get(key)
     if cached is None:
         resolved, choice = resolve(s)
         cached = (prepare(resolved), resolved, choice)
-        _SCENES[task.point] = cached
+        _SCENES[key] = cached
         while len(_SCENES) > SCENE_CACHE_SIZE:
             _SCENES.popitem(last=False)
-    _SCENES.move_to_end(task.point)
+    _SCENES.move_to_end(key)
     scene, resolved, choice = cached
     if s.chip.fixed_pattern_seed < 0:  # every replicate another chip: redraw PRNU/DSNU
         scene = replace(scene, sensor=chip_sensor(s))
