@@ -29,6 +29,9 @@ An error is a distance between the laws of a figure at the two levels, not betwe
 a level that samples the reference's law (binned for events) costs nothing even though its draws
 differ; one that replaces the law by its mean (expected) costs the spread it leaves out.
 
+This module runs scenes for its calibrations (:mod:`chiptwin.run`, imported when called) and
+``run()`` resolves ``auto`` through it: the one import loop between the two, by design.
+
 Errors of different stages add (the triangle inequality, an upper estimate); stages are chosen
 in :data:`ORDER` (largest savings first on the ladder), each taking the cheapest level that keeps
 every budgeted figure's total within the budget. Non-``auto`` stages' errors count against the
