@@ -54,7 +54,8 @@ from chiptwin.run import chip_sensor, run
 from chiptwin.study.stats import mean_estimate
 
 #: Stages whose levels all draw the same random numbers for the same seed (the photon levels
-#: draw differently: none, counts, arrival times; the shot levels a normal or a Poisson count).
+#: draw differently: none, counts, arrival times; the shot levels a normal or a Poisson count),
+#: except at the events level, whose arrival times follow the light each level makes.
 SAME_DRAWS = frozenset({"kinetics", "optics", "dsp"})
 
 
@@ -126,7 +127,8 @@ def plan(s: Scenario, reference: dict[str, str] | None = None) -> list[Rung]:
         for level in levels:
             if level == ref[stage]:
                 continue
-            rungs.append(Rung(stage, level, {**ref, stage: level}, crn=stage in SAME_DRAWS))
+            same = stage in SAME_DRAWS and ref["photons"] != "events"
+            rungs.append(Rung(stage, level, {**ref, stage: level}, crn=same))
     cheapest = {stage: levels[0] for stage, levels in LEVELS.items()}
     rungs.append(Rung("cheapest", _label(cheapest), cheapest,
                       crn=cheapest["photons"] == ref["photons"]))
