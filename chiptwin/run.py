@@ -74,19 +74,21 @@ def run(
 
 def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
                  progress: Callable[[int, int], None] | None = None,
-                 t_start: float | None = None, choice: AutoChoice | None = None) -> Result:
+                 t_start: float | None = None, choice: AutoChoice | None = None,
+                 frame_steps: bool = True) -> Result:
     """The chip model and the detection for a scene :func:`prepare` made of ``s``.
 
     A study prepares a point once and calls this per replicate with ``s`` carrying the
     replicate's seed: the result is bit for bit the one :func:`run` gives for that seed (the
     random draws all happen here, from ``s.scenario.seed``'s named streams). ``s`` has no
     ``auto`` level left (:func:`chiptwin.fidelity.resolve`); ``choice``, what resolved them,
-    goes in the summary.
+    goes in the summary. ``frame_steps=False`` records the trace without each frame's reset and
+    conversion steps (:class:`~chiptwin.chip.Recorder`; the same outputs, fewer events).
     """
     _check_resolved(s)
     t_start = time.perf_counter() if t_start is None else t_start
     timer = timer or StageTimer()
-    rec = Recorder()
+    rec = Recorder(frame_steps=frame_steps)
     frames_path = _frames_file() if s.run.save_frames else None
     out = simulate(s, scene, s.run.fidelity.photons, stage_rng(s.scenario.seed, "pixel"), rec,
                    timer, progress, sites=stages.site_pixel_indices(s), frames_path=frames_path)
