@@ -52,15 +52,14 @@ def _validate(scenario: str, sets: list[str]) -> tuple[int, str]:
     return _cli(argv)
 
 
-@pytest.mark.parametrize("mode", ["fixed", "rtl"])
-def test_issue_command_is_refused_naming_acc_bits(mode):
-    """The reported command (exit 1 before): exit 2, one line, the key, its value and the fix."""
-    if mode == "rtl":
-        from chiptwin import rtl
+def test_issue_command_is_refused_naming_acc_bits():
+    """The reported command (exit 1 before): exit 2, one line, the key, its value and the fix.
+    (The same at the rtl level: ``tests/rtl/test_rtl_validation.py``, under the RTL tests'
+    simulator policy.)"""
+    assert_refuses_acc_bits(*_validate("pyro_1fmol", ISSUE + ['chip.dsp.mode="fixed"']))
 
-        if rtl.missing():
-            pytest.skip("the rtl level needs Verilator: " + rtl.INSTALL_HINT)
-    code, err = _validate("pyro_1fmol", ISSUE + [f'chip.dsp.mode="{mode}"'])
+
+def assert_refuses_acc_bits(code: int, err: str) -> None:
     assert code == 2, err
     assert err.count("\n") == 1 and "Traceback" not in err
     assert "chip.dsp.acc_bits = 64" in err and "82-bit" in err and "acc_bits ≤ 46" in err
