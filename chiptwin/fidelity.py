@@ -40,12 +40,14 @@ budget too.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
 import math
 import sqlite3
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -53,10 +55,12 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from chiptwin import __version__
+from chiptwin import __version__, stages
+from chiptwin.chip import Recorder
 from chiptwin.config import Scenario, ScenarioError
 from chiptwin.config.consistency import check_consistency
 from chiptwin.config.schema import BUDGET_FIGURES
+from chiptwin.results import detect
 
 #: The levels of each stage, cheapest first (raytrace is not built: the ladder skips it).
 LEVELS: dict[str, tuple[str, ...]] = {
@@ -271,7 +275,7 @@ class _Estimator:
         self.s, self.ref, self.cache = s, ref, cache
         self.calibration_s = 0.0
         self.cached: list[str] = []
-        self._base: Any = None
+        self._runs: dict[tuple, _ExpectedRun] = {}
 
     def estimate(self, stage: str, level: str, levels: dict[str, str]) -> Estimate:
         """The error of ``level`` against the stage's reference, with the other stages at
@@ -304,9 +308,9 @@ class _Estimator:
                         f"{_cross_talk_share(self.s):.3g} of their light")
 
     def _calibrated(self, stage: str, level: str, how: str) -> Estimate:
-        base = self._expected_levels()
-        runs = [_expected_figures(self.s, {**base, stage: lv}) for lv in (level, self.ref[stage])]
-        measured = figure_errors(runs[0][0], runs[1][0])
+        base = self._expected_levels()  # its stage is at the reference: that side is the base
+        cheap, ref = (self._expected({**base, stage: lv}) for lv in (level, self.ref[stage]))
+        measured = figure_errors(cheap.figures, ref.figures)
         return Estimate({f: float(measured.get(f, 0.0)) for f in FIGURES}, how)  # no flows: 0
 
     # -- analytic stages ---------------------------------------------------------------------
@@ -315,7 +319,8 @@ class _Estimator:
         if level == "binned":  # against events
             return Estimate.exact("binned counts have the events level's law (Poisson counts "
                                   "of the same means, the same full-well clip)")
-        summary, out, e_per_lsb = self._base_run()
+        base = self._expected(self._expected_levels())
+        summary, out, e_per_lsb = base.summary, base.out, base.e_per_lsb
         sites = summary["sites"]
         k = EXPECTED_SDS
         signal_rel = max((st["signal_sd_e"] / abs(st["signal_e"]) for st in sites
@@ -336,7 +341,8 @@ class _Estimator:
     def _shot(self, level: str) -> Estimate:
         lam = self._min_site_mean_e()
         tv = gaussian_tv(lam)
-        summary, out, e_per_lsb = self._base_run()
+        base = self._expected(self._expected_levels())
+        summary, out, e_per_lsb = base.summary, base.out, base.e_per_lsb
         flows = summary.get("flows") or []
         top = max((abs(f["value"]) for f in flows), default=0.0)
         errors = {"signal_rel": tv, "noise_rel": tv, "flow_value_abs": 2 * tv * top,
@@ -368,8 +374,9 @@ class _Estimator:
             further = [st for st in d.program if st not in DEFAULT_PROGRAM]
             how += (f"; the program's further stages ({', '.join(further)}) at most "
                     f"{later:.3g} LSB (their analytic bounds on this scene's data, calibrated)")
-        summary, _, e_per_lsb = self._base_run()
-        signal = min(abs(st["signal_e"]) for st in summary["sites"]) or math.inf
+        base = self._expected(self._expected_levels())
+        e_per_lsb = base.e_per_lsb
+        signal = min(abs(st["signal_e"]) for st in base.summary["sites"]) or math.inf
         errors = {"dsp_lsb": lsb, "signal_rel": lsb * e_per_lsb / signal, "noise_rel": 0.0,
                   "flow_value_abs": 2 * lsb * e_per_lsb / signal}
         return Estimate(_with_snr(errors), how)
@@ -382,8 +389,7 @@ class _Estimator:
         from chiptwin.run import run
 
         sv = with_levels(self.s, {**self.ref, "photons": "binned", "dsp": "fixed"})
-        sv = dataclasses.replace(sv, chip=dataclasses.replace(
-            sv.chip, dsp=dataclasses.replace(sv.chip.dsp, report_error=True)))
+        sv = replace(sv, chip=replace(sv.chip, dsp=replace(sv.chip.dsp, report_error=True)))
         bounds = run(sv).summary["dsp_program"].get("stage_error_bounds", {})
         return float(sum(b["bound_lsb"] for b in bounds.values()))
 
@@ -392,17 +398,16 @@ class _Estimator:
     def _expected_levels(self) -> dict[str, str]:
         return {**self.ref, "photons": "expected", "dsp": "float", "shot": "poisson"}
 
-    def _base_run(self):
-        if self._base is None:
-            self._base = _expected_figures(self.s, self._expected_levels())[1:]
-        return self._base
+    def _expected(self, levels: dict[str, str]) -> _ExpectedRun:
+        """The scene at ``levels`` and the expected photon level, made once per levels."""
+        key = tuple(sorted(levels.items()))
+        if key not in self._runs:
+            self._runs[key] = _ExpectedRun.of(self.s, levels)
+        return self._runs[key]
 
     def _min_site_mean_e(self) -> float:
-        from chiptwin import stages
-        from chiptwin.run import prepare
-
-        s = with_levels(self.s, self._expected_levels())
-        scene = prepare(s)
+        base = self._expected(self._expected_levels())
+        scene, s = base.scene, base.scenario
         idx = stages.site_pixel_indices(s)
         t_int, gain = s.chip.timing.t_int_s, s.chip.adc.gain_error
         lam, b = math.inf, scene.block_frames
@@ -412,21 +417,31 @@ class _Estimator:
         return lam
 
 
-def _expected_figures(s: Scenario, levels: dict[str, str]):
-    """The scene at ``levels`` (the expected photon level): the ladder's figures, the summary,
-    the chain's output and electrons per LSB."""
-    from chiptwin import stages
-    from chiptwin.chip import Recorder
-    from chiptwin.results import detect
-    from chiptwin.run import prepare, simulate, stage_rng
+@dataclass
+class _ExpectedRun:
+    """A scene run at the expected photon level (no draws): its scene, chain output, summary
+    and the ladder's figures."""
 
-    sv = with_levels(s, levels)
-    scene = prepare(sv)
-    out = simulate(sv, scene, "expected", stage_rng(sv.scenario.seed, "pixel"), Recorder(),
-                   sites=stages.site_pixel_indices(sv))
-    summary, arrays = detect(sv, scene, out)
-    e_per_lsb = scene.sensor.e_per_lsb
-    return figures(summary, arrays, e_per_lsb), summary, out, e_per_lsb
+    scenario: Scenario
+    scene: Any
+    out: Any
+    summary: dict[str, Any]
+    figures: dict[str, np.ndarray]
+
+    @property
+    def e_per_lsb(self) -> float:
+        return self.scene.sensor.e_per_lsb
+
+    @classmethod
+    def of(cls, s: Scenario, levels: dict[str, str]) -> _ExpectedRun:
+        from chiptwin.run import prepare, simulate, stage_rng
+
+        sv = with_levels(s, levels)
+        scene = prepare(sv)
+        out = simulate(sv, scene, "expected", stage_rng(sv.scenario.seed, "pixel"), Recorder(),
+                       sites=stages.site_pixel_indices(sv))
+        summary, arrays = detect(sv, scene, out)
+        return cls(sv, scene, out, summary, figures(summary, arrays, scene.sensor.e_per_lsb))
 
 
 def _with_snr(spent: dict[str, float]) -> dict[str, float]:
@@ -487,13 +502,20 @@ def _scene_hash(s: Scenario, stage: str, level: str, ref: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _connect(path: Path | None) -> sqlite3.Connection:
+@contextlib.contextmanager
+def _connect(path: Path | None) -> Iterator[sqlite3.Connection]:
+    """The estimates database in one transaction, closed after (sqlite3's own context manager
+    commits but leaves the connection open)."""
     path = cache_path() if path is None else path
     path.parent.mkdir(parents=True, exist_ok=True)
     con = sqlite3.connect(path, timeout=30)
-    con.execute("CREATE TABLE IF NOT EXISTS estimates (key TEXT PRIMARY KEY, estimate TEXT, "
-                "created REAL)")
-    return con
+    try:
+        with con:
+            con.execute("CREATE TABLE IF NOT EXISTS estimates (key TEXT PRIMARY KEY, "
+                        "estimate TEXT, created REAL)")
+            yield con
+    finally:
+        con.close()
 
 
 def _cache_get(path: Path | None, key: str) -> dict[str, Any] | None:

@@ -48,6 +48,7 @@ from chiptwin.fidelity import (
     figure_errors,
     figures,
     reference_levels,
+    resolve,
     with_levels,
 )
 from chiptwin.run import chip_sensor, run
@@ -139,8 +140,6 @@ def plan(s: Scenario, reference: dict[str, str] | None = None) -> list[Rung]:
         rungs[-1].skipped = ("the shortcut needs the default DSP program and no rtl, acc_bits "
                              "or report_error (chiptwin.shortcuts)")
     if s.run.fidelity.auto_stages():  # the levels auto picks for the scene's budget
-        from chiptwin.fidelity import resolve
-
         choice = resolve(s)[1]
         same = all(choice.levels[st] == ref[st] for st in ("photons", "shot"))
         rungs.append(Rung("auto", _label(choice.levels), choice.levels, crn=same,

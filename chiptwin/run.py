@@ -25,7 +25,6 @@ from chiptwin.config.consistency import check_consistency, scenario_warnings
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
 from chiptwin.dsp.pipeline import BlockOut, Frame, Pipeline, chain_for
 from chiptwin.dsp.program import is_default
-from chiptwin.fidelity import AutoChoice
 from chiptwin.results import detect, light_decay_per_s
 from chiptwin.scene import ChainOutput, PixelFrames, Scene, StageTimer, stage_rng
 
@@ -74,7 +73,7 @@ def run(
 
 def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
                  progress: Callable[[int, int], None] | None = None,
-                 t_start: float | None = None, choice: AutoChoice | None = None,
+                 t_start: float | None = None, choice: fidelity.AutoChoice | None = None,
                  frame_steps: bool = True) -> Result:
     """The chip model and the detection for a scene :func:`prepare` made of ``s``.
 
@@ -188,7 +187,7 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
     frame where they sum highest; None keeps every pixel's. ``frames_path`` streams every frame
     as read (codes, or the expected CMS difference at the ``expected`` level) to a ``.npy`` file.
 
-    ``carry_dark`` (default: the scenario's ``[run] carry_dark_pixels`` if it has one, else off)
+    ``carry_dark`` (default: the scenario's ``[run] carry_dark_pixels``)
     takes the shortcut :mod:`chiptwin.shortcuts` names: pixels not kept that see no site light
     above a tenth of their noise are not drawn but carried at the ``expected`` level; the sites'
     outputs are then equal in distribution to the full path's, not bit for bit.
