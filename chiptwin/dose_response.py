@@ -17,7 +17,6 @@ giving each site its own amount (``[sites] amounts_fmol``, 0 = a blank site); th
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -77,18 +76,6 @@ def scale_source(s: Scenario, source: LightSource) -> LightSource:
     return PulseTrain(site=source.site, onset_s=source.onset_s,
                       amplitude_per_s=source.amplitude_per_s * scale[source.site],
                       decay_per_s=source.decay_per_s, n_sites=source.n_sites)
-
-
-def with_site_amounts(s: Scenario, scene: Scene) -> Scene:
-    """A scene :func:`chiptwin.run.prepare` made with one amount at every site, given each site's
-    amount: its source scaled (:func:`scale_source`) and its light per window with it (the
-    window integrals are linear in the amplitudes, so this equals preparing the scaled source).
-    A scene whose light already follows the amounts (:func:`chiptwin.stages.light_source`
-    applying :func:`scale_source`) is returned as it is."""
-    if site_scale(s) is None or honours_amounts(s, scene):
-        return scene
-    return replace(scene, source=scale_source(s, scene.source),
-                   site_photons=scene.site_photons * site_scale(s)[:, None])
 
 
 def honours_amounts(s: Scenario, scene: Scene) -> bool:

@@ -19,7 +19,7 @@ from scipy import stats
 
 from chiptwin.config import ScenarioError, load_scenario
 from chiptwin.constants import N_A, Q_E
-from chiptwin.dose_response import interpolate_lod, with_site_amounts
+from chiptwin.dose_response import interpolate_lod
 from chiptwin.run import prepare, run_prepared
 from tests.conftest import SCENARIOS
 
@@ -28,7 +28,7 @@ PATH = SCENARIOS / "atp_dose_response.toml"
 
 def _run(s, seed: int | None = None, scene=None):
     """The scenario run with each site's amount (the scene made once per chip, then reused)."""
-    scene = scene or with_site_amounts(s, prepare(s))
+    scene = scene or prepare(s)
     if seed is not None:
         s = dataclasses.replace(s, scenario=dataclasses.replace(s.scenario, seed=seed))
     return run_prepared(s, scene)
@@ -159,7 +159,7 @@ def test_blank_three_sigma_threshold_gives_the_normal_false_positive_rate():
     zeros = "[" + ", ".join(["0"] * 128) + "]"
     s = load_scenario(PATH, ['sites.at_pixels="all"', f"sites.amounts_fmol={zeros}",
                              "run.duration_s=40"])
-    scene = with_site_amounts(s, prepare(s))
+    scene = prepare(s)
     above, expected, z = 0, 0.0, []
     for seed in range(300):
         r = _run(s, seed, scene)
