@@ -25,9 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from chiptwin.config import load_scenario
-from chiptwin.fidelity import resolve
-from chiptwin.ladder import LEVELS, reference_levels, with_levels
-from chiptwin.run import run
+from chiptwin.fidelity import resolve, run
+from chiptwin.fidelity.ladder import LEVELS, reference_levels, with_levels
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 

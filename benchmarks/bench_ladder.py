@@ -1,11 +1,11 @@
 """The fidelity ladder of every bundled scenario and of the hard cases, with ``auto``'s row.
 
-Each scenario runs through :func:`chiptwin.ladder.run_ladder` with every stage left to ``auto``
+Each scenario runs through :func:`chiptwin.fidelity.run_ladder` with every stage left to ``auto``
 under the budget given (default ``snr_rel = 0.01``), so its table holds the reference, each
 stage's other levels, the cheapest combination and the levels ``auto`` picks, each with its warm
 wall time, speed-up and measured errors. Scenes whose reference (events photons, cascade
 kinetics) would take hours are made smaller by the ``--set`` keys in :data:`SMALLER`, stated in
-the output. The hard cases (:data:`chiptwin.ladder.HARD_CASES`) run with their own budgets.
+the output. The hard cases (:data:`chiptwin.fidelity.ladder.HARD_CASES`) run with their own budgets.
 
     python benchmarks/bench_ladder.py [NAME ...] [--replicates N] [--budget snr_rel=0.01]
         [--rtl] [--out FILE.md]
@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 from chiptwin.config import load_scenario
-from chiptwin.ladder import HARD_CASES, LEVELS, run_ladder, table
+from chiptwin.fidelity.ladder import HARD_CASES, LEVELS, run_ladder, table
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 

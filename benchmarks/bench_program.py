@@ -11,7 +11,7 @@ import statistics
 import time
 from pathlib import Path
 
-from chiptwin.run import run
+from chiptwin.fidelity import run
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "pyro_1fmol.toml"
 PROGRAMS = {

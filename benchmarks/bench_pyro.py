@@ -17,7 +17,7 @@ SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "pyro_1fmol.toml"
 CHILD = r"""
 import json, sys, time
 t0 = time.perf_counter()
-from chiptwin.run import run
+from chiptwin.fidelity import run
 t_import = time.perf_counter() - t0
 t1 = time.perf_counter(); r = run(sys.argv[1]); first = time.perf_counter() - t1
 warm = []

@@ -1,6 +1,6 @@
 """Benchmark: one replicate of a study point, warm, in one process, against the path it replaced.
 
-A budget study prepares a point once (``chiptwin.run.prepare``) and runs thousands of replicates
+A budget study prepares a point once (``chiptwin.twin.prepare``) and runs thousands of replicates
 (``run_prepared`` with another ``scenario.seed``). This times, for ``pyro_1fmol`` (binned photons,
 float DSP, 8 × 16 pixels, 1520 frames):
 
@@ -29,13 +29,15 @@ from pathlib import Path
 
 import numpy as np
 
-import chiptwin.run as run_module
-from chiptwin import pixel, stages
+import chiptwin.twin.runner as run_module
+from chiptwin import pixel
 from chiptwin.chip import simulate_chip
 from chiptwin.config import load_scenario
 from chiptwin.dsp.pipeline import Frame
-from chiptwin.run import prepare, run, run_prepared
-from chiptwin.scene import StageTimer, stage_rng
+from chiptwin.fidelity import run
+from chiptwin.twin import stages
+from chiptwin.twin.runner import prepare, run_prepared
+from chiptwin.twin.scene import StageTimer, stage_rng
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "pyro_1fmol.toml"
 STAGES = ("kinetics", "optics", "pixel", "adc", "dsp", "memory", "detection")
@@ -45,7 +47,7 @@ STAGES = ("kinetics", "optics", "pixel", "adc", "dsp", "memory", "detection")
 
 
 def old_simulate(s, scene, photons_level, rng, rec, timer=None, progress=None, keep_codes=False):
-    """``chiptwin.run.simulate`` as it was: every pixel function called, and checked, per frame."""
+    """``chiptwin.twin.simulate`` as it was: every pixel function called, and checked, per frame."""
     timer = timer or StageTimer()
     sch, sensor, pix_photons = scene.sch, scene.sensor, scene.pix_photons
     adc = s.chip.adc

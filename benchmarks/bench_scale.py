@@ -31,8 +31,9 @@ import numba
 import numpy as np
 
 from chiptwin.config import load_scenario
+from chiptwin.fidelity import run
 from chiptwin.pixel import sensor_chain
-from chiptwin.run import chip_sensor, prepare, run
+from chiptwin.twin.runner import chip_sensor, prepare
 
 ROOT = Path(__file__).resolve().parents[1]
 PYRO = ROOT / "scenarios" / "pyro_1fmol.toml"
@@ -107,7 +108,7 @@ def vm_hwm_kb() -> int:
 def peak_rss_mb(side: int, duration_s: float) -> float:
     """``run()`` in a fresh process; its peak resident set (MB)."""
     code = (f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import bench_scale; "
-            f"from chiptwin.run import run; run(bench_scale.grown({side}, {duration_s}));"
+            f"from chiptwin.fidelity import run; run(bench_scale.grown({side}, {duration_s}));"
             "print(bench_scale.vm_hwm_kb())")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return int(out.stdout.split()[-1]) / 1024
@@ -115,14 +116,14 @@ def peak_rss_mb(side: int, duration_s: float) -> float:
 
 def array_end_to_end() -> dict:
     code = (f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import bench_scale; "
-            "import time, tempfile, json; from chiptwin.run import run; "
-            "from chiptwin.report import write_outputs; t0 = time.perf_counter(); "
+            "import time, tempfile, json; from chiptwin.fidelity import run; "
+            "from chiptwin.report.outputs import write_outputs; t0 = time.perf_counter(); "
             f"r = run({str(ARRAY)!r}); t1 = time.perf_counter(); "
             "d = tempfile.mkdtemp(); write_outputs(r, d + '/out'); t2 = time.perf_counter(); "
             "a = r.summary['array']; print(json.dumps({'run_s': t1 - t0, 'write_s': t2 - t1, "
             "'rss_mb': bench_scale.vm_hwm_kb() / 1024, "
             "'stage_time_s': r.summary['stage_time_s'], 'array': a}))")
-    subprocess.run([sys.executable, "-c", f"from chiptwin.run import run; run({str(PYRO)!r})"],
+    subprocess.run([sys.executable, "-c", f"from chiptwin.twin import run; run({str(PYRO)!r})"],
                    check=True)  # compile and cache the kernels first
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])

@@ -1,10 +1,11 @@
-"""Speed and error of the "model only what the scene needs" shortcuts (:mod:`chiptwin.shortcuts`,
+"""Speed and error of the "model only what the scene needs" shortcuts
+(:mod:`chiptwin.twin.shortcuts`,
 and the trace without frame steps, :class:`chiptwin.chip.trace.Recorder`).
 
 For each bundled scenario where a shortcut applies, the full path and the shortcut run side by
 side on one prepared scene, warm (one untimed run of each first, so numba's cache and the
 scene's memo are loaded), in the same process: the median wall time of the chip model and the
-detection (``simulate`` + ``results.detect``, what :func:`chiptwin.run.run_prepared` times), the
+detection (``simulate`` + ``results.detect``, what :func:`chiptwin.twin.run_prepared` times), the
 ratio, and the error the shortcut actually incurs on the headline figures. The carried-dark-pixels
 shortcut draws other numbers for the sites (an equality in law), so its error on a figure is shown
 beside the seed-to-seed spread of the full path (full at seed s against full at seed s + 1), each
@@ -32,10 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
-from chiptwin import shortcuts, stages
 from chiptwin.config import load_scenario
-from chiptwin.results import detect
-from chiptwin.run import Recorder, StageTimer, prepare, simulate, stage_rng
+from chiptwin.twin import shortcuts, stages
+from chiptwin.twin.results import detect
+from chiptwin.twin.runner import Recorder, StageTimer, prepare, simulate, stage_rng
 
 ROOT = Path(__file__).resolve().parents[1] / "scenarios"
 ALL = ("pyro_1fmol", "pyro_array_256", "pyro_paper_yield_fast", "ccd_100fmol", "atp_glow",

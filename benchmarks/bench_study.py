@@ -23,7 +23,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from chiptwin.cli import bundled_studies, resolve_scenario
-from chiptwin.run import run
+from chiptwin.fidelity import run
 from chiptwin.study import load_study, run_study
 from chiptwin.study.rows import chip_seed
 from chiptwin.study.spec import point_scenario

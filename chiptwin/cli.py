@@ -1,4 +1,4 @@
-"""The ``chiptwin`` command: a thin layer over :func:`chiptwin.run.run`.
+"""The ``chiptwin`` command: a thin layer over :func:`chiptwin.twin.runner.run`.
 
 Exit codes: 0 success, 2 bad input (one clear line, no traceback), 1 internal error.
 """
@@ -12,11 +12,17 @@ import sys
 import time
 import traceback
 from collections.abc import Sequence
-from importlib import resources
 from pathlib import Path
 
 from chiptwin import __version__
 from chiptwin.config import ScenarioError, load_scenario
+from chiptwin.config.catalog import (
+    bundled_scenarios,
+    bundled_scenarios_folder,
+    bundled_studies,
+    resolve_scenario,
+    resolve_study,
+)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -81,50 +87,6 @@ def _scenario_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, help="replace scenario.seed")
 
 
-def bundled_scenarios() -> dict[str, Path]:
-    """The scenarios shipped with the package, by name.
-
-    An installed package carries them as ``chiptwin.scenarios`` (``scenarios/`` mapped in
-    pyproject.toml); a source tree has them in ``scenarios/`` beside the package.
-    """
-    try:  # a namespace package: iterate its entries, str() of the folder is not a path
-        files = [Path(str(f)) for f in resources.files("chiptwin.scenarios").iterdir()]
-    except ModuleNotFoundError:
-        files = list((Path(__file__).resolve().parents[1] / "scenarios").iterdir())
-    return {f.stem: f for f in sorted(files) if f.suffix == ".toml"}
-
-
-def bundled_studies() -> dict[str, Path]:
-    """The studies shipped with the package (``scenarios/studies``), by name."""
-    folder = bundled_scenarios_folder() / "studies"
-    return {f.stem: f for f in sorted(folder.iterdir()) if f.suffix == ".toml"} if \
-        folder.is_dir() else {}
-
-
-def bundled_scenarios_folder() -> Path:
-    """The folder of the bundled scenarios (installed, or the source tree's)."""
-    try:
-        return Path(str(next(iter(resources.files("chiptwin.scenarios").iterdir())))).parent
-    except (ModuleNotFoundError, StopIteration):
-        return Path(__file__).resolve().parents[1] / "scenarios"
-
-
-def resolve_study(name: str) -> Path:
-    """A path as given, or a bundled study's file."""
-    path = Path(name)
-    if path.exists() or path.suffix == ".toml":
-        return path
-    return bundled_studies().get(name, path)
-
-
-def resolve_scenario(name: str) -> Path:
-    """A path as given, or a bundled scenario's file."""
-    path = Path(name)
-    if path.exists() or path.suffix == ".toml":
-        return path
-    return bundled_scenarios().get(name, path)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI in-process; returns the exit code."""
     try:
@@ -181,8 +143,9 @@ def _dispatch(args: argparse.Namespace) -> int:
         return _dsp_report(scenario, args.json)
     if args.command == "ladder":
         return _ladder(scenario, args)
-    from chiptwin.report import check_out_dir, headline, write_outputs
-    from chiptwin.run import run
+    from chiptwin.config.outputs import check_out_dir
+    from chiptwin.fidelity import run
+    from chiptwin.report import headline, write_outputs
 
     out = check_out_dir(args.out or Path("out") / scenario.scenario.name)  # before the run
     progress = None if args.quiet else _Progress()
@@ -199,8 +162,8 @@ def _dsp_report(scenario, json_path: str | None) -> int:
     import json
 
     from chiptwin.dsp.errors import format_error_table
-    from chiptwin.dsp.scenario_report import dsp_report
-    from chiptwin.run import stage_rng
+    from chiptwin.report.dsp_report import dsp_report
+    from chiptwin.twin.runner import stage_rng
 
     if json_path:
         _check_json_path(json_path)
@@ -215,7 +178,7 @@ def _dsp_report(scenario, json_path: str | None) -> int:
 def _characterize(args: argparse.Namespace) -> int:
     from chiptwin.characterize import characterize
     from chiptwin.characterize.outputs import JSON_NAME, headline
-    from chiptwin.report import check_out_dir
+    from chiptwin.config.outputs import check_out_dir
 
     if args.scenario is None and args.from_datasheet is None:
         raise ScenarioError("chiptwin", "characterize", "(nothing)",
@@ -223,7 +186,8 @@ def _characterize(args: argparse.Namespace) -> int:
     path = resolve_scenario(args.scenario or "pyro_1fmol")
     datasheet = args.from_datasheet
     if datasheet:
-        from chiptwin.characterize.twin import bundled_datasheet, load_with_datasheet
+        from chiptwin.config.datasheet import bundled_datasheet
+        from chiptwin.config.load import load_with_datasheet
 
         datasheet = bundled_datasheet(datasheet, bundled_scenarios_folder() / "datasheets")
         scenario = load_with_datasheet(path, datasheet, args.set, args.seed)
@@ -269,7 +233,7 @@ def _validate_study(path: Path) -> int:
 
 
 def _study(args: argparse.Namespace) -> int:
-    from chiptwin.report import check_out_dir
+    from chiptwin.config.outputs import check_out_dir
     from chiptwin.study import load_study, run_study
     from chiptwin.study.outputs import answer_lines, write_study_outputs
     from chiptwin.study.store import DB_NAME
@@ -302,8 +266,8 @@ def _study(args: argparse.Namespace) -> int:
 def _ladder(scenario, args: argparse.Namespace) -> int:
     import json
 
-    from chiptwin.ladder import run_ladder, table, write_ladder
-    from chiptwin.report import check_out_dir
+    from chiptwin.config.outputs import check_out_dir
+    from chiptwin.fidelity.ladder import run_ladder, table, write_ladder
 
     out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}_ladder",
                         marker="ladder.json")
@@ -321,7 +285,7 @@ def _ladder(scenario, args: argparse.Namespace) -> int:
 
 
 def _reference_levels(pins: list[str]) -> dict[str, str]:
-    from chiptwin.ladder import LEVELS
+    from chiptwin.fidelity.ladder import LEVELS
 
     out = {}
     for pin in pins:

@@ -1,6 +1,6 @@
 """Sizes and limits of the model that the stages obey and the run budget checks beforehand.
 
-One home for numbers that both a stage (:mod:`chiptwin.stages`, :mod:`chiptwin.scene`,
+One home for numbers that both a stage (:mod:`chiptwin.twin.stages`, :mod:`chiptwin.twin.scene`,
 :mod:`chiptwin.pixel.frames`) and :mod:`chiptwin.config.budget` need, so the budget never
 mirrors a copy; no heavy imports (validation imports it before numba is loaded).
 """
@@ -21,7 +21,7 @@ BLOCK_SAMPLES: int = 1 << 20
 DENSE_COUPLING_ENTRIES: int = 1 << 24
 
 #: Largest array whose coupling is integrated over every pixel for every site (the dense path).
-#: Above 64 × 64 pixels it is the shifted kernel (``chiptwin.stages._sparse_coupling``):
+#: Above 64 × 64 pixels it is the shifted kernel (``chiptwin.twin.stages._sparse_coupling``):
 #: integrating the psf over all 128 × 128 pixels took 236 MB of temporaries and 0.4 s for two
 #: sites, more than the whole chip model then holds.
 DENSE_COUPLING_PIXELS: int = 64 * 64

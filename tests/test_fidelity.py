@@ -14,9 +14,9 @@ from scipy import stats
 from chiptwin import pixel
 from chiptwin.cli import main
 from chiptwin.config import load_scenario
-from chiptwin.fidelity import gaussian_tv, resolve
-from chiptwin.ladder import HARD_CASES, LEVELS, reference_levels, with_levels
-from chiptwin.run import fidelity_used, run
+from chiptwin.fidelity import gaussian_tv, resolve, run
+from chiptwin.fidelity.ladder import HARD_CASES, LEVELS, reference_levels, with_levels
+from chiptwin.twin.runner import fidelity_used
 from tests.conftest import REDUCED, SCENARIOS
 
 ALL_AUTO = [f'run.fidelity.{stage}="auto"' for stage in LEVELS]
@@ -167,7 +167,7 @@ def _choice(name: str, sets: list[str] | tuple[str, ...]):
 
 @pytest.mark.parametrize("case", sorted(HARD_CASES))
 def test_auto_refuses_the_cheap_level_of_each_hard_case(case):
-    """Each hard case (:data:`chiptwin.ladder.HARD_CASES`): with its budget, auto keeps a
+    """Each hard case (:data:`chiptwin.fidelity.ladder.HARD_CASES`): with its budget, auto keeps a
     level above the cheap one, and says why it refused the cheap one."""
     hc = HARD_CASES[case]
     budget = [f"run.error_budget.{f}={v}" for f, v in hc.budget.items()]

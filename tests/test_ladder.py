@@ -8,9 +8,16 @@ import json
 import numpy as np
 import pytest
 
-from chiptwin import stages
 from chiptwin.config import ScenarioError, load_scenario
-from chiptwin.ladder import pareto, plan, reference_levels, run_ladder, with_levels, write_ladder
+from chiptwin.fidelity.ladder import (
+    pareto,
+    plan,
+    reference_levels,
+    run_ladder,
+    with_levels,
+    write_ladder,
+)
+from chiptwin.twin import stages
 from tests.conftest import SCENARIOS
 
 CHEAP_REFERENCE = {"kinetics": "closed_form", "photons": "expected", "optics": "psf",

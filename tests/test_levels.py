@@ -7,8 +7,8 @@ import pytest
 
 from chiptwin.cli import main
 from chiptwin.config import ScenarioError, load_scenario
+from chiptwin.fidelity import run
 from chiptwin.pixel import dark_current_e_per_s
-from chiptwin.run import run
 from tests.conftest import SCENARIOS
 
 

@@ -11,7 +11,8 @@ import pytest
 from chiptwin import pixel
 from chiptwin.cli import main
 from chiptwin.config import ScenarioError, load_scenario
-from chiptwin.run import chip_sensor, prepare, run, run_prepared
+from chiptwin.fidelity import run
+from chiptwin.twin.runner import chip_sensor, prepare, run_prepared
 from tests.conftest import REDUCED, SCENARIOS
 
 TIMING_KEYS = {"wall_time_s", "stage_time_s"}
@@ -127,7 +128,7 @@ def test_noise_model_matches_blank_pixels_of_the_reference_chip():
     the blank pixels of pyro_1fmol (13-bit ADC: read noise 0.13 LSB, so rounding errors of the M
     samples are correlated, the case the M-sample mean's LSB²/12M gets wrong: it was 40 % low).
     69 pixels × 375 outputs: the variance's standard error is 0.9 %; tolerance 3 %."""
-    from chiptwin.run import Recorder, prepare, simulate, stage_rng
+    from chiptwin.twin.runner import Recorder, prepare, simulate, stage_rng
 
     s = load_scenario(SCENARIOS / "pyro_1fmol.toml")
     scene = prepare(s)
@@ -210,7 +211,7 @@ def test_pixel_frames_are_the_per_frame_functions(small_toml):
 def test_every_bundled_scenario_writes_its_outputs(name, tmp_path):
     """Each bundled scenario (made small, :data:`tests.conftest.REDUCED`) runs and writes its
     summary, report and plots: the headline and plot code meet every scene's summary."""
-    from chiptwin.report import write_outputs
+    from chiptwin.report.outputs import write_outputs
 
     result = run(load_scenario(SCENARIOS / f"{name}.toml", REDUCED.get(name, [])))
     out = write_outputs(result, tmp_path / "out")

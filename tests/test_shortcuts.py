@@ -1,4 +1,5 @@
-"""Equivalence tests of the "model only what the scene needs" shortcuts (:mod:`chiptwin.shortcuts`).
+"""Equivalence tests of the "model only what the scene needs" shortcuts
+(:mod:`chiptwin.twin.shortcuts`).
 
 Carried dark pixels: on a 32 × 32 chip with 64 sites at a 4-pixel pitch (the geometry of
 ``pyro_array_256``, smaller), the run that draws only the kept, lit and clip-prone pixels must give
@@ -22,9 +23,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from chiptwin import shortcuts, stages
 from chiptwin.config import load_scenario
-from chiptwin.run import Recorder, prepare, simulate, stage_rng
+from chiptwin.twin import shortcuts, stages
+from chiptwin.twin.runner import Recorder, prepare, simulate, stage_rng
 
 GRID = [f"[{r}, {c}]" for r in range(1, 32, 4) for c in range(1, 32, 4)]
 WIDE = ["chip.rows=32", "chip.cols=32", "chip.memory.capacity_bits=2000000", "assay.dna_fmol=0.01",
@@ -269,7 +270,7 @@ def test_block_get_is_one_get_per_frame(name, monkeypatch, tmp_path):
 def test_the_scenario_key_turns_it_on_and_the_summary_says_so():
     """``[run] carry_dark_pixels = true``: the summary counts the carried pixels, or says the
     shortcut does not apply (the events level) and carries none."""
-    from chiptwin.run import run
+    from chiptwin.fidelity import run
     from tests.conftest import REDUCED, SCENARIOS
 
     sets = [*REDUCED["pyro_1fmol"], "run.carry_dark_pixels=true"]

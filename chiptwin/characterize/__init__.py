@@ -17,14 +17,16 @@ measures a sensor::
 * :mod:`~chiptwin.characterize.datasheet`: the figures, with the scenario's own values beside.
 * :mod:`~chiptwin.characterize.outputs`, :mod:`~chiptwin.characterize.plots`: ``emva1288.json``,
   ``datasheet.md``, the standard's plots.
-* :mod:`~chiptwin.characterize.twin`: a datasheet (the same JSON layout) → ``[chip.pixel]`` and
+* :mod:`~chiptwin.config.datasheet`: a datasheet (the same JSON layout) → ``[chip.pixel]`` and
   ``[chip.adc]`` values (``from_datasheet = "FILE.json"``).
 """
 
 from __future__ import annotations
 
 import json
+import sys
 import time
+import types
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -58,14 +60,14 @@ class Characterization:
         return to_json(self.datasheet, self.meta)
 
 
-def characterize(s: Scenario, protocol: Protocol | None = None,
+def characterize(s: Scenario | str | Path, protocol: Protocol | None = None,
                  progress: Progress | None = None, datasheet_in: str | Path | None = None,
                  keep_images: bool = False) -> Characterization:
     """Measure the scenario's chip with the EMVA 1288 protocol and evaluate its datasheet.
 
     Parameters
     ----------
-    s : Scenario
+    s : Scenario, a TOML file, or the name of a bundled scenario
         Its ``[chip]`` is measured; its seed seeds the bench's streams.
     protocol : Protocol, optional
         Default :class:`~chiptwin.characterize.protocol.Protocol()`.
@@ -80,7 +82,10 @@ def characterize(s: Scenario, protocol: Protocol | None = None,
     from chiptwin.characterize.datasheet import build_datasheet
     from chiptwin.characterize.measure import measure
     from chiptwin.characterize.protocol import Protocol
+    from chiptwin.config import Scenario, load_scenario
 
+    if not isinstance(s, Scenario):
+        s = load_scenario(s)
     t0 = time.perf_counter()
     m = measure(s, protocol or Protocol(), progress, keep_images)
     d = build_datasheet(m, s)
@@ -93,3 +98,14 @@ def characterize(s: Scenario, protocol: Protocol | None = None,
     if datasheet_in is not None:
         meta["datasheet_in"] = str(datasheet_in)
     return Characterization(d, meta)
+
+
+class _CallableModule(types.ModuleType):
+    """``chiptwin.characterize`` is this package and, called, :func:`characterize` (the public
+    ``chiptwin.characterize(...)``, whichever of the two the name holds when it is used)."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Characterization:
+        return characterize(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule

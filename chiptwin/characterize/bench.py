@@ -27,7 +27,7 @@ from chiptwin.config import Scenario
 from chiptwin.constants import C_LIGHT, H_PLANCK
 from chiptwin.dsp import reference
 from chiptwin.dsp.frame_ops import CmsConfig, cms_fixed
-from chiptwin.stages import SensorModel
+from chiptwin.twin.stages import SensorModel
 
 #: Wavelength at which the twin's QE is given (schema: "qe at 560 nm"; REFERENCE §1: luciferase
 #: emission peaks at 562 nm). Unit: nm.
@@ -101,7 +101,7 @@ class Bench:
 
     def __init__(self, s: Scenario) -> None:
         from chiptwin.dsp.pipeline import chain_for
-        from chiptwin.run import chip_sensor
+        from chiptwin.twin.runner import chip_sensor
 
         self.scenario, self.camera = s, camera_of(s)
         self.sensor: SensorModel = chip_sensor(s)

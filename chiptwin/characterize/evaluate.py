@@ -46,7 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 from chiptwin.characterize.estimators import spatial_stats
 
 if TYPE_CHECKING:
-    from chiptwin.characterize.measure import SpatialSeries, TemperatureSeries, TemporalSeries
+    from chiptwin.characterize.series import SpatialSeries, TemperatureSeries, TemporalSeries
 
 #: Quantisation noise of one conversion, the standard's σ²_q. Unit: DN².
 SIGMA2_Q: float = 1.0 / 12.0

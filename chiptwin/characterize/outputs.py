@@ -3,7 +3,7 @@
 Everything goes into a fresh temporary folder beside the target, renamed into place at the end:
 a crashed or refused characterisation never leaves a half-written folder that looks complete, and
 only a folder that is new, empty or a previous characterisation (it holds ``emva1288.json``) is
-replaced (:func:`chiptwin.report.check_out_dir`).
+replaced (:func:`chiptwin.config.outputs.check_out_dir`).
 """
 
 from __future__ import annotations
@@ -133,7 +133,7 @@ def write_outputs(d: Datasheet, meta: dict[str, Any], out_dir: str | Path) -> Pa
     """Write ``emva1288.json``, ``datasheet.md`` and the plots into ``out_dir``, whole or not at
     all, replacing a previous characterisation there."""
     from chiptwin.characterize.plots import make_plots
-    from chiptwin.report import check_out_dir, replacing
+    from chiptwin.config.outputs import check_out_dir, replacing
 
     out = check_out_dir(out_dir, marker=JSON_NAME)
     with replacing(out) as tmp:

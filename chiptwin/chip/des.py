@@ -26,8 +26,12 @@ import simpy
 from simpy.core import BoundClass
 
 from chiptwin.chip.trace import Recorder
-from chiptwin.config.schema import Chip
 from chiptwin.constants import s_to_ticks, ticks_to_s
+
+#: A ``[chip]`` section (:class:`chiptwin.config.schema.Chip`). The stage
+#: packages sit below the scenario files (``docs/architecture.md``): they read its fields by
+#: name and import nothing from ``config``.
+Chip = Any
 
 
 class DspEngine(Protocol):

@@ -4,8 +4,8 @@ Three budgets, each refused with :class:`ScenarioError` naming the keys that mak
 the limit (exit 2 from the CLI, an ``invalid`` point in a study):
 
 * **memory** — an estimate of the peak a run holds (:func:`memory_estimate`), term by term from
-  what :mod:`chiptwin.run`, :mod:`chiptwin.scene`, :mod:`chiptwin.chip.des` and
-  :mod:`chiptwin.results` keep, against :func:`memory_budget_bytes` (8 GiB by default, a third
+  what :mod:`chiptwin.twin.runner`, :mod:`chiptwin.twin.scene`, :mod:`chiptwin.chip.des` and
+  :mod:`chiptwin.twin.results` keep, against :func:`memory_budget_bytes` (8 GiB by default, a third
   of the 24 GiB machine the twin is developed on, so two study workers fit beside the system;
   ``CHIPTWIN_MEMORY_BUDGET_GIB`` changes it);
 * **counts** — the largest Poisson mean a sampler is handed, the expected charge of one pixel in
@@ -25,6 +25,8 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
+
+import numpy as np
 
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
@@ -253,7 +255,7 @@ def frames_held(s: Scenario, n_frames: int) -> int:
 
 def _kernel_radius(s: Scenario) -> int:
     """Pixels out to which the sparse coupling keeps a site's light (the doubling search of
-    ``chiptwin.stages._sparse_coupling``, on a point at the footprint's nearest edge: never
+    ``chiptwin.twin.stages._sparse_coupling``, on a point at the footprint's nearest edge: never
     smaller than the one it makes)."""
     if s.assay.kind == "flux" or s.optics.coupling == "lens":
         return 0
@@ -339,3 +341,11 @@ def _value_of(s: Scenario, key: str) -> object:
     if key == "sites.at_pixels" and isinstance(obj, list):
         return f"[{len(obj)} sites]"
     return obj
+
+
+def window_edges(s: Scenario) -> np.ndarray:
+    """The assay's windows: a pyrosequencing run's flows, else [start, end of run]. Unit: s."""
+    a = s.assay
+    if a.kind == "pyrosequencing":
+        return a.start_s + a.flow_period_s * np.arange(a.n_flows + 1)
+    return np.array([a.start_s, s.run.duration_s])

@@ -60,7 +60,7 @@ def _fidelity(s: Scenario) -> None:
               "needs [run] error_budget, the error it may spend (e.g. { snr_rel = 0.01 })")
     for stage, level in levels.items():
         if level == "auto":
-            continue  # resolved before the run (chiptwin.fidelity), then checked again
+            continue  # resolved before the run (chiptwin.fidelity.auto), then checked again
         if level not in BUILT_LEVELS[stage]:
             key = "chip.dsp.mode" if stage == "dsp" and not s.run.fidelity.dsp else (
                 f"run.fidelity.{stage}")
@@ -72,7 +72,7 @@ def _fidelity(s: Scenario) -> None:
         _fail(s, "run.fidelity.photons", "expected",
               f"carries no ADC codes for the {s.dsp_level} DSP to compute on; use binned")
     if s.dsp_level == "rtl":
-        from chiptwin import rtl
+        from chiptwin.dsp import rtl
 
         if "verilator" in rtl.missing():
             key = "run.fidelity.dsp" if s.run.fidelity.dsp else "chip.dsp.mode"
@@ -304,7 +304,7 @@ def _site_amounts(s: Scenario) -> None:
     """``[sites] amounts_fmol``: one amount per site, each in [0, the ``[assay]`` amount].
 
     The light of every closed-form assay is proportional to its analyte (eqs. 5–19), so a site's
-    light is the ``[assay]`` amount's scaled by the site's share (chiptwin.dose_response); the
+    light is the ``[assay]`` amount's scaled by the site's share (chiptwin.twin.dose_response); the
     cascade's is not, and light given at the diode (``flux``) has no analyte.
     """
     amounts = s.sites.amounts_fmol
@@ -434,9 +434,11 @@ def _program_formats(s: Scenario) -> None:
     try:
         prog.program_formats(s.chip)
         if "kinetics" in s.chip.dsp.program:
-            from chiptwin.programs import kinetics_plan
+            from chiptwin.config.budget import window_edges
+            from chiptwin.dsp.program_pipeline import kinetics_plan
 
-            kinetics_plan(s, Schedule.from_chip(s.chip, s.run.duration_s))
+            kinetics_plan(s.chip, Schedule.from_chip(s.chip, s.run.duration_s), window_edges(s),
+                          getattr(s.assay, prog.DECAY_KEYS[s.assay.kind]))
     except (ValueError, IndexError) as err:
         stage = "kinetics" if "kinetics" in str(err).lower() else "the program"
         _fail(s, "chip.dsp.program", s.chip.dsp.program,

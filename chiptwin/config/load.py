@@ -6,6 +6,7 @@ checks a file saying ``bits = 40`` would.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import difflib
 import functools
@@ -15,7 +16,9 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from chiptwin.config.catalog import resolve_scenario
 from chiptwin.config.consistency import check_consistency
+from chiptwin.config.datasheet import apply_datasheet, datasheet_values, read_datasheet
 from chiptwin.config.fields import ScenarioError, check_value
 from chiptwin.config.schema import ASSAY_COMMON_KEYS, ASSAY_KIND_KEYS, Scenario
 
@@ -30,7 +33,8 @@ def load_scenario(
     Parameters
     ----------
     path : str or Path
-        The TOML file.
+        The TOML file, or the name of a bundled scenario (``"pyro_1fmol"``, as on the command
+        line: :func:`chiptwin.config.catalog.resolve_scenario`).
     overrides : iterable of str
         ``"section.key=value"`` strings; the value is read as TOML (``12``, ``1e-3``, ``"x"``,
         ``true``), falling back to a bare string.
@@ -42,6 +46,8 @@ def load_scenario(
     ScenarioError
         Naming the file, the key, the value and what is allowed.
     """
+    if isinstance(path, str):
+        path = resolve_scenario(path)
     source = str(path)
     raw = read_toml(path)
     for text in overrides:
@@ -90,14 +96,12 @@ def scenario_from_dict(raw: dict[str, Any], source: str = "<scenario>") -> Scena
 
     ``[chip.pixel] from_datasheet = "FILE.json"`` is replaced, in a copy of the table and before
     validation (as ``--set`` overrides are), by the pixel and ADC values of that EMVA 1288
-    datasheet (:func:`chiptwin.characterize.twin.apply_datasheet`: path relative to the scenario's
+    datasheet (:func:`chiptwin.config.datasheet.apply_datasheet`: path relative to the scenario's
     folder, else the working folder; values the scenario also sets must agree).
     """
     chip = raw.get("chip")
     pixel = chip.get("pixel") if isinstance(chip, dict) else None
     if isinstance(pixel, dict) and "from_datasheet" in pixel:
-        from chiptwin.characterize.twin import apply_datasheet
-
         raw = apply_datasheet(raw, source, lambda table: _scenario(table, source))
     return _scenario(raw, source)
 
@@ -156,3 +160,31 @@ def _check_assay_keys(raw_assay: dict[str, Any], kind: str, source: str) -> None
                 source, f"assay.{key}", raw_assay[key],
                 f"not used by assay kind {kind!r}; its keys: {', '.join(sorted(allowed))}",
             )
+
+
+def load_with_datasheet(path: str | Path, datasheet: str | Path, overrides: Iterable[str] = (),
+                        seed: int | None = None) -> Scenario:
+    """A scenario file whose chip takes its pixel and ADC values from a datasheet
+    (``chiptwin characterize --from``): the datasheet's values replace the file's own, as a
+    command-line option should; an override (``--set``) of one of them is a conflict."""
+    source = str(path)
+    datasheet = Path(datasheet)
+    doc = read_datasheet(datasheet)
+    raw = read_toml(path)
+    base_raw = copy.deepcopy(raw)
+    for text in overrides:
+        apply_override(base_raw, text, source)
+    pixel_raw = (base_raw.get("chip") or {}).get("pixel")
+    if isinstance(pixel_raw, dict):
+        pixel_raw.pop("from_datasheet", None)
+    targets = datasheet_values(doc, scenario_from_dict(base_raw, source))
+    for key in targets:
+        section = raw.get("chip", {}).get(key.split(".")[1])
+        if isinstance(section, dict):
+            section.pop(key.rsplit(".", 1)[1], None)
+    for text in overrides:
+        apply_override(raw, text, source)
+    raw.setdefault("chip", {}).setdefault("pixel", {})["from_datasheet"] = str(datasheet.resolve())
+    if seed is not None:
+        raw.setdefault("scenario", {})["seed"] = seed
+    return scenario_from_dict(raw, source)

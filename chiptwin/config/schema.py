@@ -328,7 +328,7 @@ class Fidelity:
     """``[run.fidelity]``: the level of each stage (SPEC: the fidelity ladder).
 
     ``"auto"`` picks the cheapest level whose error on the scene stays within ``[run]
-    error_budget`` (:mod:`chiptwin.fidelity`).
+    error_budget`` (:mod:`chiptwin.fidelity.auto`).
     """
 
     kinetics: str = param("closed_form", choices=("closed_form", "cascade", "auto"))
@@ -399,7 +399,8 @@ class Run:
     carry_dark_pixels: bool = param(
         False, kind=bool,
         doc="binned level: carry pixels that see no site light (≤ 0.1 of their noise) at the "
-            "expected level instead of drawing them (chiptwin.shortcuts; same law, other draws)")
+            "expected level instead of drawing them (chiptwin.twin.shortcuts; same law, other "
+            "draws)")
     fidelity: Fidelity = field(default_factory=Fidelity)
     error_budget: ErrorBudget = field(default_factory=ErrorBudget)
 

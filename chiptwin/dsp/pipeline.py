@@ -10,7 +10,7 @@ noise. The dark reference's own noise is common to every output and kept apart
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
@@ -19,8 +19,10 @@ from chiptwin.dsp.chain import ChainConfig, chain_configs, with_accumulator
 from chiptwin.dsp.frame_ops import average_frames_fixed, cms_fixed, subtract_background_fixed
 from chiptwin.dsp.registers import FixedResult
 
-if TYPE_CHECKING:
-    from chiptwin.config.schema import Chip
+#: A ``[chip]`` section (:class:`chiptwin.config.schema.Chip`). The stage
+#: packages sit below the scenario files (``docs/architecture.md``): they read its fields by
+#: name and import nothing from ``config``.
+Chip = Any
 
 
 @dataclass(frozen=True)

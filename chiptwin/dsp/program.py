@@ -40,15 +40,18 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import Any
 
 from chiptwin.dsp.chain import MAX_REGISTER_BITS, ChainConfig, FormatLimit
 from chiptwin.dsp.filters import FirConfig
 from chiptwin.dsp.fmt import Fmt, mul_fmt, sum_fmt
 from chiptwin.dsp.frame_ops import BinningConfig
 
-if TYPE_CHECKING:
-    from chiptwin.config.schema import Chip, Dsp
+#: A ``[chip]`` section (:class:`chiptwin.config.schema.Chip`; its ``dsp``, a
+#: :class:`~chiptwin.config.schema.Dsp`). The stage
+#: packages sit below the scenario files (``docs/architecture.md``): they read its fields by
+#: name and import nothing from ``config``.
+Chip = Dsp = Any
 
 #: Every stage a program may name, in the only order they may come.
 STAGES = ("cms", "dark", "background", "average", "kinetics", "bin_rows", "fir8", "wiener")

@@ -28,7 +28,13 @@ from chiptwin.dsp.filters import (
 from chiptwin.dsp.fmt import Fmt
 from chiptwin.dsp.frame_ops import bin_lines_fixed
 from chiptwin.dsp.pipeline import BlockOut, ErrorStats
-from chiptwin.dsp.program import FIR_TAPS, ProgramFormats
+from chiptwin.dsp.program import (
+    FIR_TAPS,
+    KINETICS_COEF,
+    KINETICS_NORM_BITS,
+    ProgramFormats,
+    program_formats,
+)
 from chiptwin.dsp.registers import FixedResult
 
 #: The FIR runs along each row of the output grid; its output is read this many columns late
@@ -69,6 +75,40 @@ class KineticsPlan:
         """``Â = Σ c_j y_j``: ``c = w / Σw²`` (float)."""
         w = self.weights
         return w / np.dot(w, w)
+
+
+def kinetics_plan(chip: Any, sch: Any, edges: np.ndarray, k: float) -> KineticsPlan:
+    """Windows of the kinetics stage and its weights ``exp(−k t_j)`` at each frame's start
+    relative to its window's (the same table for every window: one weight ROM).
+
+    ``chip`` is a ``[chip]`` section (:class:`chiptwin.config.schema.Chip`), ``sch`` its frame
+    schedule (:class:`chiptwin.chip.Schedule`), ``edges`` the assay's window edges (s), ``k``
+    the light's decay rate (1/s)."""
+    d = chip.dsp
+    frames = np.arange(sch.dark_frames, sch.n_frames)
+    t0 = np.array([sch.window_s(f)[0] for f in frames])
+    t1 = np.array([sch.window_s(f)[1] for f in frames])
+    win = np.searchsorted(edges, t0, side="right") - 1
+    inside = (win >= 0) & (win < len(edges) - 1)
+    inside &= t1 <= edges[np.clip(win + 1, 0, len(edges) - 1)] + 1e-9
+    win = np.where(inside, win, -1)
+    if not (win >= 0).any():
+        raise ValueError("kinetics: no frame of the run lies inside an assay window")
+    counts = np.bincount(win[win >= 0], minlength=len(edges) - 1)
+    full = counts.max()
+    win = np.where((win >= 0) & (counts[np.maximum(win, 0)] == full), win, -1)  # cut windows
+    first = win == win[win >= 0][0]
+    t_s = tuple(float(v) for v in t0[first] - edges[win[first][0]])
+    last = np.zeros(len(win), bool)
+    idx = np.flatnonzero(win >= 0)
+    last[idx] = np.append(win[idx][1:] != win[idx][:-1], True)
+    fmts = program_formats(chip)
+    cfg = KineticsConfig(t_s=t_s, k_per_s=k, in_fmt=fmts.front.average.out_fmt,
+                         coef_fmt=KINETICS_COEF, acc_fmt=fmts.kinetics_acc,
+                         norm_word_bits=KINETICS_NORM_BITS, out_fmt=fmts.kinetics_out,
+                         rounding=d.rounding, overflow=d.overflow, acc_overflow=d.acc_overflow)
+    w = np.exp(-k * np.array(t_s))
+    return KineticsPlan(cfg, win, last, float(w.sum()) / d.average_frames)
 
 
 @dataclass(frozen=True)
@@ -348,7 +388,7 @@ def _codes(values: np.ndarray, fmt: Fmt) -> np.ndarray:
 
 
 def _rtl(name: str):
-    import chiptwin.rtl  # noqa: F401  (puts rtl_ref on the path)
+    import chiptwin.dsp.rtl  # noqa: F401  (puts rtl_ref on the path)
     from rtl_ref import routines
 
     return getattr(routines, name)

@@ -121,7 +121,7 @@ def binned_codes(
         ``"poisson"``: exact counts. ``"gaussian"`` (the ``[run.fidelity] shot`` level): every
         count is ``max(0, rint(λ + √λ·z))``, the normal of the same mean and variance (plus
         1/12 e⁻² of rounding); its total-variation distance to the Poisson law is
-        :func:`chiptwin.fidelity.gaussian_tv` of the mean (≈ 0.13/√λ: 0.004 at λ = 1000).
+        :func:`chiptwin.twin.levels.gaussian_tv` of the mean (≈ 0.13/√λ: 0.004 at λ = 1000).
 
     Returns
     -------

@@ -22,12 +22,7 @@ import numpy as np
 
 from chiptwin import __version__
 from chiptwin.config import ScenarioError
-from chiptwin.study import search
-from chiptwin.study.execute import make_executor
-from chiptwin.study.metrics import CATALOGUE, row_metrics
-from chiptwin.study.rows import RowTask, chip_seed, row_seed
-from chiptwin.study.spec import Point, Study, load_study, point_scenario
-from chiptwin.study.stats import (
+from chiptwin.detection.stats import (
     Estimate,
     decide,
     looks_confidence,
@@ -35,6 +30,11 @@ from chiptwin.study.stats import (
     mean_estimate,
     rate_estimate,
 )
+from chiptwin.study import search
+from chiptwin.study.execute import make_executor
+from chiptwin.study.metrics import CATALOGUE, row_metrics
+from chiptwin.study.rows import RowTask, chip_seed, row_seed
+from chiptwin.study.spec import Point, Study, load_study, point_scenario
 from chiptwin.study.store import Store
 
 Progress = Callable[[int, int], None]
@@ -58,7 +58,7 @@ def run_study(study: Study | str | Path, workers: int | None = None,
 
     Parameters
     ----------
-    study : a :class:`Study` or a study file
+    study : a :class:`Study`, a study file, or the name of a bundled study
     workers : processes of the local pool (default: every core; 1 runs in this process)
     scheduler : a Dask scheduler address, or ``"local"`` for a ``distributed.LocalCluster``
     db : the SQLite file rows go to (``":memory:"``: nothing kept); an existing one resumes
@@ -67,9 +67,9 @@ def run_study(study: Study | str | Path, workers: int | None = None,
     """
     t0 = time.perf_counter()
     if not isinstance(study, Study):
-        from chiptwin.cli import resolve_scenario
+        from chiptwin.config.catalog import resolve_scenario, resolve_study
 
-        study = load_study(study, resolve_scenario)
+        study = load_study(resolve_study(str(study)), resolve_scenario)
     plan = Plan(study)  # validates every point before anything runs
     executor = make_executor(workers, scheduler)  # a bad scheduler fails before the store
     try:

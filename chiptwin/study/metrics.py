@@ -14,7 +14,7 @@ arrays. Two kinds:
 
 ``snr_loss_db`` is derived per point: ``10·log10(mean SNR_ref / mean SNR)`` from the power SNR of
 the point's rows and of its reference point's rows (``study.reference``), with a delta-method
-interval (:func:`chiptwin.study.stats.loss_db_interval`).
+interval (:func:`chiptwin.detection.stats.loss_db_interval`).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from chiptwin.config import Scenario
-    from chiptwin.run import Result
+    from chiptwin.twin.runner import Result
 
 
 @dataclass(frozen=True)

@@ -67,7 +67,7 @@ _SCENES: OrderedDict[str, Any] = OrderedDict()
 def _scene(task: RowTask, s: Scenario):
     """The point's scene, its ``auto`` fidelity resolved (once per point) and the choice."""
     from chiptwin.fidelity import resolve
-    from chiptwin.run import chip_sensor, prepare
+    from chiptwin.twin.runner import chip_sensor, prepare
 
     # keyed by the point's whole scenario (its seed aside): a point hash names the axis values
     # only, and two studies run in one process (tests, a notebook) may share one
@@ -92,7 +92,7 @@ def run_row(task: RowTask) -> dict[str, Any]:
     t0 = time.perf_counter()
     if task.scenario is None:
         return row_record(task, "invalid", None, task.invalid, 0.0)
-    from chiptwin.run import run_prepared
+    from chiptwin.twin.runner import run_prepared
 
     s = replace(task.scenario, scenario=replace(task.scenario.scenario, seed=task.seed))
     try:

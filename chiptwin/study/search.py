@@ -1,7 +1,7 @@
 """Which points to run: the whole grid, or a bisection on the one budget axis.
 
 Both work on "decisions" (``pass``/``fail``/``undecided`` per point, from
-:func:`chiptwin.study.stats.decide`) and share the monotonicity check and the answer rule.
+:func:`chiptwin.detection.stats.decide`) and share the monotonicity check and the answer rule.
 
 **The monotonicity assumption.** Along a budget axis (cheapest value first) a point that meets
 the requirement is assumed to be followed only by points that meet it too: more ADC bits, more

@@ -231,7 +231,7 @@ def _pin_datasheet(base_raw: dict[str, Any], scenario_path: Path) -> str:
     pixel = base_raw.get("chip", {}).get("pixel", {})
     if not isinstance(pixel, dict) or "from_datasheet" not in pixel:
         return ""
-    from chiptwin.characterize.twin import resolve_path
+    from chiptwin.config.datasheet import resolve_path
 
     path = resolve_path(pixel["from_datasheet"], str(scenario_path)).resolve()
     pixel["from_datasheet"] = str(path)

@@ -10,13 +10,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from chiptwin import limits, stages
-from chiptwin import scene as scene_module
+from chiptwin import limits
 from chiptwin.config import load_scenario
+from chiptwin.fidelity import run
 from chiptwin.pixel import CHUNK_PIXELS
 from chiptwin.pixel import frames as frames_module
-from chiptwin.report import write_outputs
-from chiptwin.run import Recorder, prepare, run, run_prepared, simulate, stage_rng
+from chiptwin.report.outputs import write_outputs
+from chiptwin.twin import scene as scene_module
+from chiptwin.twin import stages
+from chiptwin.twin.runner import Recorder, prepare, run_prepared, simulate, stage_rng
 
 #: The small scenario on a 48 × 48 array (2,304 pixels: two chunks of random streams), with frame
 #: memory for 20 frames.

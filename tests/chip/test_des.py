@@ -7,7 +7,7 @@ import pytest
 
 from chiptwin.chip import Recorder, Schedule, simulate_chip
 from chiptwin.config import ScenarioError, load_scenario
-from chiptwin.run import run
+from chiptwin.fidelity import run
 
 
 def _schedule(small_toml, *overrides):

@@ -8,11 +8,12 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from chiptwin import limits, stages
+from chiptwin import limits
 from chiptwin.cli import main
 from chiptwin.config import budget as B
 from chiptwin.config import load_scenario
 from chiptwin.pixel.frames import POISSON_LAM_MAX
+from chiptwin.twin import stages
 from tests.conftest import SCENARIOS
 
 # (what, scenario, overrides, key the one-line refusal names, words it says)
@@ -86,7 +87,7 @@ def test_charge_bound_is_above_every_pixel_frame(name, kinetics):
     """The bound the Poisson check uses is above the largest expected charge of a real run, and
     for the closed forms within a factor 100 of it (the cascade's bound is a whole flow's light:
     its rate has no closed form)."""
-    from chiptwin.run import prepare
+    from chiptwin.twin.runner import prepare
 
     s = load_scenario(SCENARIOS / f"{name}.toml", [f'run.fidelity.kinetics="{kinetics}"',
                                                    "chip.pixel.dark_current_nA_per_cm2=0"])

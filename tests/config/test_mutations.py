@@ -301,7 +301,7 @@ def test_dose_response_without_a_slope_has_no_lod_error():
     """Found by a pixel sweep of atp_dose_response (``chip.pixel.full_well_e = 1``: every pixel
     clips, no amount gives a signal): the LoD's standard error divided by the slope 0
     (ZeroDivisionError after the run, exit 1). With no slope it is infinite."""
-    from chiptwin.dose_response import _lod
+    from chiptwin.twin.dose_response import _lod
 
     amounts, expected = np.array([1.0, 2.0]), np.zeros(2)
     stats = {"threshold_measured_e": 3.0, "threshold_measured_se_e": 0.5}

@@ -10,7 +10,7 @@ import numpy as np
 from chiptwin.cli import main
 from chiptwin.config import load_scenario
 from chiptwin.config.consistency import scenario_warnings
-from chiptwin.run import run
+from chiptwin.fidelity import run
 
 
 def test_fixed_chain_equals_float_when_m_k_n_are_powers_of_two(small_toml):

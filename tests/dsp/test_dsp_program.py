@@ -24,8 +24,8 @@ from chiptwin.dsp.program import (
     stage_costs,
 )
 from chiptwin.dsp.program_pipeline import FIR_ALIGN, KineticsPlan, ProgramPipeline, _fir_rows
-from chiptwin.programs import program_pipeline, spatial_plan
-from chiptwin.run import run
+from chiptwin.fidelity import run
+from chiptwin.twin.programs import program_pipeline, spatial_plan
 from tests.conftest import SCENARIOS
 
 SPATIAL = '["cms","dark","background","average","bin_rows","fir8","wiener"]'
@@ -318,7 +318,7 @@ def test_minimum_pitch_skips_pitches_without_a_zero_forcing_equalizer():
     """ccd_two_wells at λ = 0: at 0.1 × its 24 µm pitch, 150 µm below the wells, every pixel of
     the 5 × 5 probe reads the same light, the Gram matrix is singular (LinAlgError before). That
     pitch is unresolved with the equalizer; the scan goes on to one where it exists."""
-    from chiptwin.programs import PITCH_SCAN, minimum_pitch
+    from chiptwin.twin.programs import PITCH_SCAN, minimum_pitch
 
     s = _with_lambda("ccd_two_wells", 0.0)
     without, with_eq = minimum_pitch(s)
@@ -331,7 +331,7 @@ def test_wiener_that_cannot_invert_the_grid_is_refused_naming_lambda(monkeypatch
     raises LinAlgError; seen in the minimum-pitch probe, not found on a bundled grid, so the
     design is made to fail here): the run is refused by λ's key, one line, not an internal
     error."""
-    import chiptwin.programs as programs
+    import chiptwin.twin.programs as programs
     from chiptwin.config import ScenarioError
 
     def singular(*_args, **_kw):
@@ -349,7 +349,7 @@ def test_column_profile_plot_without_light_at_the_sites(tmp_path):
     (TypeError, exit 1 after the run). It says there is no light instead."""
     from types import SimpleNamespace
 
-    from chiptwin.programs import program_plots
+    from chiptwin.twin.programs import program_plots
 
     s = load_scenario(SCENARIOS / "ccd_two_wells.toml")
     zero = np.zeros((1, s.chip.cols))
@@ -365,7 +365,7 @@ def test_headline_when_no_scanned_pitch_resolves_neighbours(small_toml):
     """Found by an optics sweep of crosstalk_microarray (``sites.height_um = 1e4``): no pitch of
     the scan resolves a neighbour, minimum_pitch gives None, and the headline's ``None:.0f``
     failed the report after the run (TypeError, exit 1). It says so instead."""
-    from chiptwin.report import headline
+    from chiptwin.report.outputs import headline
 
     cross = {"before_db_median": 2.0, "after_db_median": -1.0, "after_predicted_db_median": -1.0,
              "snr_cost_db_median": 3.0, "min_pitch_um_with": None, "min_pitch_um_without": None}

@@ -13,7 +13,7 @@ import pytest
 from chiptwin.dsp.chain import chain_configs
 from chiptwin.dsp.fixed import Fmt
 from chiptwin.dsp.pipeline import Frame, Pipeline
-from chiptwin.run import run
+from chiptwin.fidelity import run
 from rtl_ref.chain_block import ChainBlock
 from rtl_ref.cosim import Bank
 from rtl_ref.pipeline import RtlPipeline, run_chain_fixed, run_chain_rtl

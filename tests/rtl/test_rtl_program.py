@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from chiptwin.run import run
+from chiptwin.fidelity import run
 
 pytestmark = pytest.mark.rtl
 

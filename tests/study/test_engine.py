@@ -15,7 +15,7 @@ import pytest
 
 from chiptwin.cli import main, resolve_scenario
 from chiptwin.config import ScenarioError
-from chiptwin.run import run
+from chiptwin.fidelity import run
 from chiptwin.study import load_study, run_study
 from chiptwin.study.metrics import measure, row_metrics
 from chiptwin.study.rows import chip_seed

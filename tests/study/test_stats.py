@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from chiptwin.study.stats import (
+from chiptwin.detection.stats import (
     clopper_pearson,
     decide,
     loss_db_interval,

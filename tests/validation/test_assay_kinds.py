@@ -11,7 +11,7 @@ import numpy as np
 
 from chiptwin.chip import Schedule
 from chiptwin.constants import N_A
-from chiptwin.run import run
+from chiptwin.fidelity import run
 from tests.conftest import SMALL
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from chiptwin.run import run
+from chiptwin.fidelity import run
 from tests.conftest import SCENARIOS
 
 

@@ -20,10 +20,10 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from chiptwin import stages
 from chiptwin.config import load_scenario
 from chiptwin.pixel import CHUNK_PIXELS
-from chiptwin.run import Recorder, prepare, simulate, stage_rng
+from chiptwin.twin import stages
+from chiptwin.twin.runner import Recorder, prepare, simulate, stage_rng
 
 WIDE = ["chip.rows=48", "chip.cols=48", "chip.memory.capacity_bits=3000000"]
 SEEDS = range(8)

@@ -2,7 +2,8 @@
 site's cross-talk by what the coupling matrix predicts.
 
 Oracle, computed here from the optics stage alone: the coupling ``C`` of a site above every pixel
-(:func:`chiptwin.stages.coupling`), columns normalised to each site's own pixel, the float Wiener
+(:func:`chiptwin.twin.stages.coupling`), columns normalised to each site's own pixel, the float
+Wiener
 matrix ``G = (CᵀC + λI)⁻¹Cᵀ`` (REFERENCE §2, paper §3.3); a site's cross-talk is
 ``Σ_n |A[n, j]| / A[j, j]`` over its 4 neighbours with ``A = C`` before and ``A = G C`` after.
 The summary's "after" is measured by pushing each site's light through the chip's fixed-point
@@ -15,9 +16,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from chiptwin import stages
 from chiptwin.dsp.reference import wiener_matrix
-from chiptwin.run import run
+from chiptwin.fidelity import run
+from chiptwin.twin import stages
 from tests.conftest import SCENARIOS
 
 

@@ -19,8 +19,8 @@ from scipy import stats
 
 from chiptwin.config import ScenarioError, load_scenario
 from chiptwin.constants import N_A, Q_E
-from chiptwin.dose_response import interpolate_lod
-from chiptwin.run import prepare, run_prepared
+from chiptwin.twin.dose_response import interpolate_lod
+from chiptwin.twin.runner import prepare, run_prepared
 from tests.conftest import SCENARIOS
 
 PATH = SCENARIOS / "atp_dose_response.toml"

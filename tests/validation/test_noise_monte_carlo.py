@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from chiptwin.config import load_scenario
-from chiptwin.run import prepare, run_prepared
+from chiptwin.twin.runner import prepare, run_prepared
 
 N_SEEDS = 1000
 TOL = 4 / np.sqrt(2 * (N_SEEDS - 1))

@@ -18,8 +18,9 @@ import pytest
 from scipy.optimize import brentq
 
 from chiptwin.constants import N_A
-from chiptwin.run import prepare, run
-from chiptwin.stages import flow_program, site_pixel_indices
+from chiptwin.fidelity import run
+from chiptwin.twin.runner import prepare
+from chiptwin.twin.stages import flow_program, site_pixel_indices
 from tests.conftest import SCENARIOS
 
 
@@ -88,7 +89,7 @@ def test_frames_that_fill_are_those_whose_expected_charge_reaches_the_well(paper
     fill (the paper's yield is 1,760 times the measured one, pyro_1fmol)."""
     s, sat = paper.scenario, paper.summary["saturation"]
     scene = prepare(s)
-    from chiptwin.saturation import site_charge_e
+    from chiptwin.twin.saturation import site_charge_e
 
     charge = site_charge_e(scene, site_pixel_indices(s))
     full = sat["full_well_e"]

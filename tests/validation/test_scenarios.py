@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from chiptwin.run import run
+from chiptwin.fidelity import run
 from tests.conftest import SCENARIOS
 
 

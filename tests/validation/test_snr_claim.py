@@ -12,8 +12,8 @@ from scipy.optimize import brentq
 
 from chiptwin.config import load_scenario
 from chiptwin.detection import required_signal_e, snr
+from chiptwin.fidelity import run
 from chiptwin.pixel import dark_current_e_per_s
-from chiptwin.run import run
 from tests.conftest import SCENARIOS
 
 AREA_UM2 = 100.0 * 100.0

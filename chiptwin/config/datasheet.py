@@ -41,7 +41,7 @@ import copy
 import dataclasses
 import json
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -174,36 +174,6 @@ def bundled_datasheet(name: str | Path, folder: Path) -> Path:
         if candidate.is_file():
             return candidate
     return path
-
-
-def load_with_datasheet(path: str | Path, datasheet: str | Path, overrides: Iterable[str] = (),
-                        seed: int | None = None) -> Scenario:
-    """A scenario file whose chip takes its pixel and ADC values from a datasheet
-    (``chiptwin characterize --from``): the datasheet's values replace the file's own, as a
-    command-line option should; an override (``--set``) of one of them is a conflict."""
-    from chiptwin.config.load import apply_override, read_toml, scenario_from_dict
-
-    source = str(path)
-    datasheet = Path(datasheet)
-    doc = read_datasheet(datasheet)
-    raw = read_toml(path)
-    base_raw = copy.deepcopy(raw)
-    for text in overrides:
-        apply_override(base_raw, text, source)
-    pixel_raw = (base_raw.get("chip") or {}).get("pixel")
-    if isinstance(pixel_raw, dict):
-        pixel_raw.pop("from_datasheet", None)
-    targets = datasheet_values(doc, scenario_from_dict(base_raw, source))
-    for key in targets:
-        section = raw.get("chip", {}).get(key.split(".")[1])
-        if isinstance(section, dict):
-            section.pop(key.rsplit(".", 1)[1], None)
-    for text in overrides:
-        apply_override(raw, text, source)
-    raw.setdefault("chip", {}).setdefault("pixel", {})["from_datasheet"] = str(datasheet.resolve())
-    if seed is not None:
-        raw.setdefault("scenario", {})["seed"] = seed
-    return scenario_from_dict(raw, source)
 
 
 def _same(a: Any, b: Any) -> bool:

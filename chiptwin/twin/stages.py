@@ -11,8 +11,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import sparse
 
-from chiptwin import dose_response, kinetics, limits, optics, photons, pixel
+from chiptwin import kinetics, limits, optics, photons, pixel
 from chiptwin.config import Scenario
+from chiptwin.config.budget import amount_key
 from chiptwin.kinetics import pyro
 from chiptwin.kinetics.light_source import LightSource
 from chiptwin.kinetics.pulse_train import PulseTrain
@@ -50,8 +51,8 @@ def light_source(s: Scenario) -> LightSource:
     only): the multi-enzyme ODE (:mod:`chiptwin.kinetics.cascade`) in the paper's limit set by
     k_t and k_a; with a measured photon yield, the luciferase amount is fitted to give it.
 
-    ``[sites] amounts_fmol`` gives each site its own amount (:func:`chiptwin.dose_response.
-    scale_source`: the closed forms are linear in it).
+    ``[sites] amounts_fmol`` gives each site its own amount (:func:`scale_source`: the closed
+    forms are linear in it).
 
     The ``flux`` kind gives light at the sensor plane instead: photons/s on the diode under each
     site (flux × diode area), with :func:`coupling` passing it straight through.
@@ -59,7 +60,46 @@ def light_source(s: Scenario) -> LightSource:
     n = len(site_pixels(s))
     if s.run.fidelity.kinetics == "cascade":
         return _cascade_source(s, n)
-    return dose_response.scale_source(s, _closed_form_source(s, n))
+    return scale_source(s, _closed_form_source(s, n))
+
+
+def assay_amount_fmol(s: Scenario) -> float:
+    """The ``[assay]`` amount of the analyte (``dna_fmol``, ``atp_fmol``, ``luciferase_amol``, …)
+    in fmol: the amount every site holds unless ``[sites] amounts_fmol`` says otherwise."""
+    key = amount_key(s)
+    return getattr(s.assay, key) * (1e-3 if key.endswith("_amol") else 1.0)
+
+
+def site_amounts_fmol(s: Scenario, n_sites: int) -> np.ndarray:
+    """Analyte per site, fmol: ``[sites] amounts_fmol``, or the ``[assay]`` amount at each."""
+    if s.sites.amounts_fmol:
+        return np.asarray(s.sites.amounts_fmol, dtype=np.float64)
+    return np.full(n_sites, assay_amount_fmol(s))
+
+
+def site_scale(s: Scenario) -> np.ndarray | None:
+    """Each site's share of the ``[assay]`` amount's light, or None when every site holds it."""
+    if not s.sites.amounts_fmol:
+        return None
+    return np.asarray(s.sites.amounts_fmol, dtype=np.float64) / assay_amount_fmol(s)
+
+
+def scale_source(s: Scenario, source: LightSource) -> LightSource:
+    """The light of each site scaled to its amount (``[sites] amounts_fmol``); ``source`` itself
+    when every site holds the ``[assay]`` amount.
+
+    The closed forms are sums of pulses ``A·e^{−k t}`` with ``A`` proportional to the analyte
+    (eqs. 5–19), so scaling each pulse's amplitude is exact. (The cascade is not linear in the
+    amount; :func:`chiptwin.config.consistency` refuses amounts with it.)
+    """
+    scale = site_scale(s)
+    if scale is None:
+        return source
+    if not isinstance(source, PulseTrain):
+        raise TypeError(f"per-site amounts scale closed-form light, not {type(source).__name__}")
+    return PulseTrain(site=source.site, onset_s=source.onset_s,
+                      amplitude_per_s=source.amplitude_per_s * scale[source.site],
+                      decay_per_s=source.decay_per_s, n_sites=source.n_sites)
 
 
 def _closed_form_source(s: Scenario, n: int) -> LightSource:

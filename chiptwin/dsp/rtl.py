@@ -4,7 +4,7 @@ The RTL, its testbenches and the co-simulation harness are the ``rtl_ref`` packa
 the source tree (``rtl_ref/README.md``); this module is the chip model's entry point to it::
 
     from chiptwin.dsp.pipeline import chain_for
-    from chiptwin.rtl import RtlPipeline
+    from chiptwin.dsp.rtl import RtlPipeline
 
     dsp = RtlPipeline(chain_for(s.chip), report_error=..., keep_codes=...)
 

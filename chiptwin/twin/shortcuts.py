@@ -8,9 +8,9 @@ tolerance; ``tests/test_shortcuts.py`` checks each against the full path and
 **Carried dark pixels** (:data:`CARRY_DARK_PIXELS_OPTION`, off by default). At the ``binned``
 photon level every pixel of the array is drawn frame by frame (a Poisson count, kTC and 2M read
 noises, 2M ADC conversions) and goes through the DSP, but the run keeps the DSP outputs of the
-site pixels only (:func:`chiptwin.run.simulate`, ``sites``). A pixel that is not kept and sees no
-site light above :data:`DARK_LIGHT_NOISE_FRACTION` of its noise is *carried*: it is not drawn
-and not run through the per-frame path at all. The pixels drawn (kept ∪ lit ∪ at risk of
+site pixels only (:func:`chiptwin.twin.runner.simulate`, ``sites``). A pixel that is not kept
+and sees no site light above :data:`DARK_LIGHT_NOISE_FRACTION` of its noise is *carried*: it is
+not drawn and not run through the per-frame path at all. The pixels drawn (kept ∪ lit ∪ at risk of
 clipping) are simulated as a smaller scene (:func:`drawn_scene`) on the same chip schedule; the
 carried ones are restored at the ``expected`` level (:func:`restore`):
 
@@ -36,7 +36,7 @@ carried ones are restored at the ``expected`` level (:func:`restore`):
   ``events`` level (its counted pixels index the whole array) and the ``expected`` level (which
   draws nothing).
 
-The summary can say so: :attr:`~chiptwin.scene.ChainOutput.carried_pixels` counts them.
+The summary can say so: :attr:`~chiptwin.twin.scene.ChainOutput.carried_pixels` counts them.
 
 Measured (``benchmarks/bench_shortcuts.py``, warm, simulate + detect, 2-core machine shared with
 other jobs): ``pyro_array_256`` draws 4,103 of 65,536 pixels, 19.9–22.8 s → 1.6–2.3 s
@@ -55,10 +55,11 @@ import numpy as np
 
 from chiptwin.dsp.pipeline import Frame, Pipeline
 from chiptwin.dsp.program import is_default
-from chiptwin.scene import ChainOutput, Scene, pixel_frames
+from chiptwin.twin.scene import ChainOutput, Scene, pixel_frames
 
 #: The switch of the carried-dark-pixels shortcut: ``[run] carry_dark_pixels`` (a bool; read by
-#: :func:`chiptwin.run.simulate` when the scenario has it, else the ``carry_dark`` argument).
+#: :func:`chiptwin.twin.runner.simulate` when the scenario has it, else the ``carry_dark``
+#: argument).
 CARRY_DARK_PIXELS_OPTION: str = "carry_dark_pixels"
 
 #: A pixel whose light charge in every frame stays at or below this fraction of its noise (the
@@ -115,7 +116,7 @@ def clip_safe(lam_max_e: np.ndarray, sensor, adc, margin: float = CLIP_MARGIN_SI
     charge stays that far below the full well (normal approximation of charge + kTC + read).
 
     ``lam_max_e``: the largest expected charge in a frame. ``sensor``: a
-    :class:`~chiptwin.stages.SensorModel`; ``adc``: ``chip.adc``.
+    :class:`~chiptwin.twin.stages.SensorModel`; ``adc``: ``chip.adc``.
     """
     sd = np.sqrt(lam_max_e + sensor.ktc_e**2 + sensor.read_noise_e**2)
     to_code = sensor.conversion_gain_uV_per_e * 1e-6 / sensor.lsb_V * (1.0 + adc.gain_error)
@@ -173,7 +174,7 @@ def _carried_rng(rng: np.random.Generator) -> np.random.Generator:
 
 def _expected_frames(s, scene: Scene, frames: list[int]) -> list[Frame]:
     """The ``expected`` level's frames ``frames`` (ascending) of ``scene``: moments only, one
-    :func:`~chiptwin.scene.pixel_frames` call per run of consecutive frames."""
+    :func:`~chiptwin.twin.scene.pixel_frames` call per run of consecutive frames."""
     out: list[Frame] = []
     breaks = np.flatnonzero(np.diff(frames) != 1) + 1
     for run in np.split(np.asarray(frames, dtype=np.int64), breaks):

@@ -1,4 +1,4 @@
-"""``auto`` fidelity: per stage, the cheapest level whose error on this scene fits the budget.
+"""The fidelity levels of each stage, and ``auto``'s choice among them from estimated errors.
 
 A ``[run.fidelity]`` key set to ``"auto"`` is resolved before the run (SPEC "Speed against
 error"). The error of a level is taken against the stage's most faithful level the scene accepts
@@ -29,8 +29,9 @@ An error is a distance between the laws of a figure at the two levels, not betwe
 a level that samples the reference's law (binned for events) costs nothing even though its draws
 differ; one that replaces the law by its mean (expected) costs the spread it leaves out.
 
-This module runs scenes for its calibrations (:mod:`chiptwin.run`, imported when called) and
-``run()`` resolves ``auto`` through it: the one import loop between the two, by design.
+This module holds the levels, the errors of the figures, the choice and the estimates cache; it
+runs nothing. The calibration runs that fill the cache sit above the twin, in
+:mod:`chiptwin.fidelity.auto` (:class:`~chiptwin.fidelity.auto.Calibrations`).
 
 Errors of different stages add (the triangle inequality, an upper estimate); stages are chosen
 in :data:`ORDER` (largest savings first on the ladder), each taking the cheapest level that keeps
@@ -55,12 +56,10 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from chiptwin import __version__, stages
-from chiptwin.chip import Recorder
+from chiptwin import __version__
 from chiptwin.config import Scenario, ScenarioError
 from chiptwin.config.consistency import check_consistency
 from chiptwin.config.schema import BUDGET_FIGURES
-from chiptwin.results import detect
 
 #: The levels of each stage, cheapest first (raytrace is not built: the ladder skips it).
 LEVELS: dict[str, tuple[str, ...]] = {
@@ -71,17 +70,21 @@ LEVELS: dict[str, tuple[str, ...]] = {
     "dsp": ("float", "fixed", "rtl"),
 }
 
+
 #: The order stages are chosen in: the largest saving first (ladder of pyro_1fmol: cascade
 #: 2.6×, rtl DSP and events photons next; optics and shot noise save least).
 ORDER = ("kinetics", "dsp", "photons", "optics", "shot")
+
 
 #: How many standard deviations of the reference's figure the ``expected`` level is charged:
 #: the reference's figure lies within 3 σ of the mean the expected level reports 99.7 % of the
 #: time (normal figures: sums of many pixel-frames).
 EXPECTED_SDS = 3.0
 
+
 #: Budget figures in a fixed order.
 FIGURES = tuple(BUDGET_FIGURES)
+
 
 #: Above this mean the TV distance is scaled as 1/√λ from its value here (the Edgeworth term:
 #: the normal misses the Poisson skewness 1/√λ), instead of summed over ≈ 80 √λ counts. Unit: e⁻.
@@ -208,15 +211,57 @@ def _round(v: float) -> float | None:
     return float(f"{v:.4g}") if math.isfinite(v) else None
 
 
-def resolve(s: Scenario, cache: Path | None = None) -> tuple[Scenario, AutoChoice | None]:
+class CachedEstimates:
+    """Each level's :class:`Estimate` on one scene: exact where the level provably gives the
+    reference's law, else read from the estimates cache. A level with no cached estimate needs a
+    calibration run of the scene: :meth:`calibrate` refuses here; the subclass above the twin
+    (:class:`chiptwin.fidelity.auto.Calibrations`) runs it."""
+
+    def __init__(self, s: Scenario, ref: dict[str, str], cache: Path | None) -> None:
+        self.s, self.ref, self.cache = s, ref, cache
+        self.calibration_s = 0.0
+        self.cached: list[str] = []
+
+    def estimate(self, stage: str, level: str, levels: dict[str, str]) -> Estimate:
+        """The error of ``level`` against the stage's reference, with the other stages at
+        ``levels``; read from the cache when this scene's was computed before."""
+        if stage == "shot" and levels.get("photons") == "expected":
+            return Estimate.exact("the expected photon level draws no counts")
+        if level == self.ref[stage]:
+            return Estimate.exact("the most faithful level this scene accepts")
+        key = _scene_hash(self.s, stage, level, self.ref[stage])
+        hit = _cache_get(self.cache, key)
+        if hit is not None:
+            self.cached.append(stage)
+            return Estimate(hit["errors"], hit["how"] + " (cached)")
+        t0 = time.perf_counter()
+        est = self.calibrate(stage, level)
+        self.calibration_s += time.perf_counter() - t0
+        _cache_put(self.cache, key, {"errors": est.errors, "how": est.how})
+        return est
+
+    def calibrate(self, stage: str, level: str) -> Estimate:
+        """The estimate of a level the cache does not hold: here, a refusal."""
+        raise ScenarioError(self.s.source, f"run.fidelity.{stage}", "auto",
+                            f"the error of {level!r} on this scene is not in the estimates "
+                            "cache: resolve auto with chiptwin.fidelity.resolve (chiptwin.run "
+                            "and the CLI do)")
+
+
+def resolve(s: Scenario, cache: Path | None = None,
+            estimates: type[CachedEstimates] | None = None
+            ) -> tuple[Scenario, AutoChoice | None]:
     """``s`` with every ``auto`` stage set to a level, and the choice; ``(s, None)`` when no
-    stage is ``auto``. ``cache`` is the calibration database (default in the user cache)."""
+    stage is ``auto``. ``cache`` is the estimates database (default in the user cache);
+    ``estimates`` the class that finds each level's error (default :class:`CachedEstimates`,
+    which reads the cache and refuses a scene it has no estimate for; the calibration runs that
+    fill it are :func:`chiptwin.fidelity.resolve`'s, above the twin)."""
     auto = s.run.fidelity.auto_stages()
     if not auto:
         return s, None
     budget = s.run.error_budget.items()
     ref = reference_levels(s)
-    estimator = _Estimator(s, ref, cache)
+    estimator = (estimates or CachedEstimates)(s, ref, cache)
     chosen = {st: (s.dsp_level if st == "dsp" else getattr(s.run.fidelity, st))
               for st in LEVELS if st not in auto}
     total = dict.fromkeys(FIGURES, 0.0)
@@ -266,222 +311,6 @@ def _add(total: dict[str, float], spent: dict[str, float]) -> None:
 def _fmt(v: float) -> str:
     return f"{v:.3g}" if math.isfinite(v) else "unbounded"
 
-
-class _Estimator:
-    """Each level's :class:`Estimate` on one scene (the expected-level run they share is made
-    once; calibrations are read from the cache when there)."""
-
-    def __init__(self, s: Scenario, ref: dict[str, str], cache: Path | None) -> None:
-        self.s, self.ref, self.cache = s, ref, cache
-        self.calibration_s = 0.0
-        self.cached: list[str] = []
-        self._runs: dict[tuple, _ExpectedRun] = {}
-
-    def estimate(self, stage: str, level: str, levels: dict[str, str]) -> Estimate:
-        """The error of ``level`` against the stage's reference, with the other stages at
-        ``levels``; read from the cache when this scene's was computed before."""
-        if stage == "shot" and levels.get("photons") == "expected":
-            return Estimate.exact("the expected photon level draws no counts")
-        if level == self.ref[stage]:
-            return Estimate.exact("the most faithful level this scene accepts")
-        key = _scene_hash(self.s, stage, level, self.ref[stage])
-        hit = _cache_get(self.cache, key)
-        if hit is not None:
-            self.cached.append(stage)
-            return Estimate(hit["errors"], hit["how"] + " (cached)")
-        t0 = time.perf_counter()
-        est = getattr(self, "_" + stage)(level)
-        self.calibration_s += time.perf_counter() - t0
-        _cache_put(self.cache, key, {"errors": est.errors, "how": est.how})
-        return est
-
-    # -- calibrated stages -------------------------------------------------------------------
-
-    def _kinetics(self, level: str) -> Estimate:
-        return self._calibrated("kinetics", level, "calibration: the expected-level run at "
-                                f"{level} against {self.ref['kinetics']}")
-
-    def _optics(self, level: str) -> Estimate:
-        est = self._calibrated("optics", level, f"calibration: the expected-level run at {level} "
-                               f"against {self.ref['optics']}")
-        return Estimate(est.errors, est.how + f"; psf cross-talk at the site pixels "
-                        f"{_cross_talk_share(self.s):.3g} of their light")
-
-    def _calibrated(self, stage: str, level: str, how: str) -> Estimate:
-        base = self._expected_levels()  # its stage is at the reference: that side is the base
-        cheap, ref = (self._expected({**base, stage: lv}) for lv in (level, self.ref[stage]))
-        measured = figure_errors(cheap.figures, ref.figures)
-        return Estimate({f: float(measured.get(f, 0.0)) for f in FIGURES}, how)  # no flows: 0
-
-    # -- analytic stages ---------------------------------------------------------------------
-
-    def _photons(self, level: str) -> Estimate:
-        if level == "binned":  # against events
-            return Estimate.exact("binned counts have the events level's law (Poisson counts "
-                                  "of the same means, the same full-well clip)")
-        base = self._expected(self._expected_levels())
-        summary, out, e_per_lsb = base.summary, base.out, base.e_per_lsb
-        sites = summary["sites"]
-        k = EXPECTED_SDS
-        signal_rel = max((st["signal_sd_e"] / abs(st["signal_e"]) for st in sites
-                          if st["signal_e"]), default=math.inf)
-        errors = {"signal_rel": k * signal_rel, "noise_rel": 0.0,
-                  "dsp_lsb": k * float(np.sqrt(np.max(out.var_e2, initial=0.0))) / e_per_lsb}
-        flows = summary.get("flows")
-        if flows:  # a flow value v = F / K: its spread from the flow's and the key's
-            key_e, key_sd = sites[0]["signal_e"], sites[0]["signal_sd_e"]
-            errors["flow_value_abs"] = k * max(
-                math.hypot(f["noise_e"], f["value"] * key_sd) / key_e for f in flows)
-        else:
-            errors["flow_value_abs"] = 0.0
-        return Estimate(_with_snr(errors), f"expected reports each figure's mean, the "
-                        f"reference's figure strays {k:g} σ from it (σ_signal/signal "
-                        f"{signal_rel:.3g})")
-
-    def _shot(self, level: str) -> Estimate:
-        lam = self._min_site_mean_e()
-        tv = gaussian_tv(lam)
-        base = self._expected(self._expected_levels())
-        summary, out, e_per_lsb = base.summary, base.out, base.e_per_lsb
-        flows = summary.get("flows") or []
-        top = max((abs(f["value"]) for f in flows), default=0.0)
-        errors = {"signal_rel": tv, "noise_rel": tv, "flow_value_abs": 2 * tv * top,
-                  "dsp_lsb": 2 * tv * float(np.sqrt(np.max(out.var_e2, initial=0.0)))
-                  / e_per_lsb}
-        return Estimate(_with_snr(errors), f"TV distance to Poisson {tv:.3g} at the smallest "
-                        f"mean charge of a site pixel in a frame, {lam:.4g} e⁻")
-
-    def _dsp(self, level: str) -> Estimate:
-        if level == "fixed":  # against rtl
-            return Estimate.exact("fixed equals the RTL bit for bit (co-simulated)")
-        from chiptwin.dsp.fixed import accumulator_bits_needed
-        from chiptwin.dsp.pipeline import chain_for
-        from chiptwin.dsp.program import DEFAULT_PROGRAM, is_default
-
-        d = self.s.chip.dsp
-        chain = chain_for(self.s.chip)
-        if d.acc_bits and d.acc_bits < accumulator_bits_needed(chain.average.in_fmt,
-                                                               d.average_frames):
-            return Estimate(dict.fromkeys(FIGURES, math.inf),
-                            f"the {d.acc_bits}-bit N-frame accumulator can wrap: fixed differs "
-                            "from float without bound")
-        lsb = _rounding_bound_lsb(chain, d.cms_samples, d.n_dark_frames, d.average_frames)
-        how = ("M, K, N powers of two: the fixed chain is exact" if lsb == 0 else
-               f"the chain's rounding, at most {lsb:.3g} LSB per output")
-        if not is_default(d.program):
-            later = self._program_bound_lsb()
-            lsb += later
-            further = [st for st in d.program if st not in DEFAULT_PROGRAM]
-            how += (f"; the program's further stages ({', '.join(further)}) at most "
-                    f"{later:.3g} LSB (their analytic bounds on this scene's data, calibrated)")
-        base = self._expected(self._expected_levels())
-        e_per_lsb = base.e_per_lsb
-        signal = min(abs(st["signal_e"]) for st in base.summary["sites"]) or math.inf
-        errors = {"dsp_lsb": lsb, "signal_rel": lsb * e_per_lsb / signal, "noise_rel": 0.0,
-                  "flow_value_abs": 2 * lsb * e_per_lsb / signal}
-        return Estimate(_with_snr(errors), how)
-
-    def _program_bound_lsb(self) -> float:
-        """The sum of the analytic bounds of the program's stages after the chain (kinetics,
-        bin_rows, fir8, wiener: coefficient quantisation and rounding, which depend on the
-        data), from one fixed-point run of the scene with ``report_error``. The chain's
-        own bound is not in it (that is :func:`_rounding_bound_lsb`)."""
-        from chiptwin.run import run
-
-        sv = with_levels(self.s, {**self.ref, "photons": "binned", "dsp": "fixed"})
-        sv = replace(sv, chip=replace(sv.chip, dsp=replace(sv.chip.dsp, report_error=True)))
-        bounds = run(sv).summary["dsp_program"].get("stage_error_bounds", {})
-        return float(sum(b["bound_lsb"] for b in bounds.values()))
-
-    # -- the scene at the expected level -----------------------------------------------------
-
-    def _expected_levels(self) -> dict[str, str]:
-        return {**self.ref, "photons": "expected", "dsp": "float", "shot": "poisson"}
-
-    def _expected(self, levels: dict[str, str]) -> _ExpectedRun:
-        """The scene at ``levels`` and the expected photon level, made once per levels."""
-        key = tuple(sorted(levels.items()))
-        if key not in self._runs:
-            self._runs[key] = _ExpectedRun.of(self.s, levels)
-        return self._runs[key]
-
-    def _min_site_mean_e(self) -> float:
-        base = self._expected(self._expected_levels())
-        scene, s = base.scene, base.scenario
-        idx = stages.site_pixel_indices(s)
-        t_int, gain = s.chip.timing.t_int_s, s.chip.adc.gain_error
-        lam, b = math.inf, scene.block_frames
-        for start in range(0, scene.sch.n_frames, b):
-            block = scene.pixel_block(t_int, gain, start, min(start + b, scene.sch.n_frames))
-            lam = min(lam, float(np.min(block.mean_e[:, idx])))
-        return lam
-
-
-@dataclass
-class _ExpectedRun:
-    """A scene run at the expected photon level (no draws): its scene, chain output, summary
-    and the ladder's figures."""
-
-    scenario: Scenario
-    scene: Any
-    out: Any
-    summary: dict[str, Any]
-    figures: dict[str, np.ndarray]
-
-    @property
-    def e_per_lsb(self) -> float:
-        return self.scene.sensor.e_per_lsb
-
-    @classmethod
-    def of(cls, s: Scenario, levels: dict[str, str]) -> _ExpectedRun:
-        from chiptwin.run import prepare, simulate, stage_rng
-
-        sv = with_levels(s, levels)
-        scene = prepare(sv)
-        out = simulate(sv, scene, "expected", stage_rng(sv.scenario.seed, "pixel"), Recorder(),
-                       sites=stages.site_pixel_indices(sv))
-        summary, arrays = detect(sv, scene, out)
-        return cls(sv, scene, out, summary, figures(summary, arrays, scene.sensor.e_per_lsb))
-
-
-def _with_snr(spent: dict[str, float]) -> dict[str, float]:
-    """Add ``snr_rel`` (power SNR S²/N²) and ``snr_db`` from the signal and noise errors."""
-    s, n = spent["signal_rel"], spent["noise_rel"]
-    snr_rel = (1 + s) ** 2 / (1 - n) ** 2 - 1 if n < 1 else math.inf
-    return {**spent, "snr_rel": snr_rel, "snr_db": 10 * math.log10(1 + snr_rel)}
-
-
-def _rounding_bound_lsb(chain, m: int, k: int, n: int) -> float:
-    """Largest |fixed − float| of an N-frame average, in ADC LSB: half an output LSB per step
-    that rounds (a division by M, K or N that is not a power of two), carried through the
-    subtraction (CMS frame minus dark reference) and the averages (means of bounded errors)."""
-    def half_ulp(fmt, divisor: int) -> float:
-        return 0.0 if divisor & (divisor - 1) == 0 else 0.5 * 2.0 ** -fmt.frac_bits
-
-    cms = half_ulp(chain.cms.out_fmt, m)
-    dark = cms + half_ulp(chain.dark.out_fmt, k)
-    exact_diff = chain.background.out_fmt.frac_bits >= max(chain.cms.out_fmt.frac_bits,
-                                                           chain.dark.out_fmt.frac_bits)
-    background = cms + dark + (0.0 if exact_diff else 0.5 * 2.0 ** -chain.background.out_fmt
-                               .frac_bits)
-    return background + half_ulp(chain.average.out_fmt, n)
-
-
-def _cross_talk_share(s: Scenario) -> float:
-    """The largest share of a site pixel's light that comes from other sites (psf coupling)."""
-    from chiptwin import stages
-    c = stages.coupling(with_levels(s, {"optics": "psf"}))
-    idx = stages.site_pixel_indices(s)
-    rows = c[idx]
-    rows = rows.toarray() if hasattr(rows, "toarray") else np.asarray(rows)
-    total = rows.sum(axis=1)
-    own = rows[np.arange(len(idx)), np.arange(len(idx))]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        share = np.where(total > 0, 1 - own / total, 0.0)
-    return float(np.max(share, initial=0.0))
-
-
-# -- the calibration cache -------------------------------------------------------------------
 
 def cache_path() -> Path:
     """``$XDG_CACHE_HOME/chiptwin/fidelity.sqlite`` (default ``~/.cache/chiptwin/...``)."""
@@ -552,4 +381,5 @@ def describe(choice: AutoChoice) -> list[str]:
     return lines
 
 
-__all__ = ["AutoChoice", "Estimate", "describe", "gaussian_tv", "resolve"]
+__all__ = ["LEVELS", "AutoChoice", "CachedEstimates", "Estimate", "describe", "figure_errors",
+           "figures", "gaussian_tv", "reference_levels", "resolve", "with_levels"]

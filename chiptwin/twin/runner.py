@@ -18,15 +18,16 @@ from typing import Any
 
 import numpy as np
 
-from chiptwin import __version__, fidelity, pixel, shortcuts, stages
+from chiptwin import __version__, pixel
 from chiptwin.chip import ChipRun, Recorder, Schedule, simulate_chip
 from chiptwin.config import Scenario, load_scenario
 from chiptwin.config.consistency import check_consistency, scenario_warnings
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
 from chiptwin.dsp.pipeline import BlockOut, Frame, Pipeline, chain_for
 from chiptwin.dsp.program import is_default
-from chiptwin.results import detect, light_decay_per_s
-from chiptwin.scene import ChainOutput, PixelFrames, Scene, StageTimer, stage_rng
+from chiptwin.twin import levels, shortcuts, stages
+from chiptwin.twin.results import detect, light_decay_per_s
+from chiptwin.twin.scene import ChainOutput, PixelFrames, Scene, StageTimer, stage_rng
 
 
 @dataclass
@@ -47,6 +48,7 @@ def run(
     overrides: Iterable[str] = (),
     seed: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    resolve: Callable[[Scenario], tuple[Scenario, levels.AutoChoice | None]] | None = None,
 ) -> Result:
     """Run a scenario end to end.
 
@@ -56,6 +58,9 @@ def run(
     overrides : ``"section.key=value"`` strings (only with a path)
     seed : replaces ``scenario.seed``
     progress : ``progress(frames_done, n_frames)``, called once per frame
+    resolve : resolves the ``auto`` fidelity keys (default :func:`chiptwin.twin.levels.resolve`,
+        from cached estimates only; :func:`chiptwin.fidelity.run` passes the resolver that
+        runs the calibrations the cache lacks)
     """
     t_start = time.perf_counter()
     if isinstance(scenario, Scenario):
@@ -66,21 +71,21 @@ def run(
     else:
         s = load_scenario(scenario, overrides, seed)
     check_consistency(s)  # a Scenario built or replaced in Python meets the file's rules too
-    s, choice = fidelity.resolve(s)
+    s, choice = (resolve or levels.resolve)(s)
     timer = StageTimer()
     return run_prepared(s, prepare(s, timer), timer, progress, t_start, choice)
 
 
 def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
                  progress: Callable[[int, int], None] | None = None,
-                 t_start: float | None = None, choice: fidelity.AutoChoice | None = None,
+                 t_start: float | None = None, choice: levels.AutoChoice | None = None,
                  frame_steps: bool = True) -> Result:
     """The chip model and the detection for a scene :func:`prepare` made of ``s``.
 
     A study prepares a point once and calls this per replicate with ``s`` carrying the
     replicate's seed: the result is bit for bit the one :func:`run` gives for that seed (the
     random draws all happen here, from ``s.scenario.seed``'s named streams). ``s`` has no
-    ``auto`` level left (:func:`chiptwin.fidelity.resolve`); ``choice``, what resolved them,
+    ``auto`` level left (:func:`chiptwin.fidelity.auto.resolve`); ``choice``, what resolved them,
     goes in the summary. ``frame_steps=False`` records the trace without each frame's reset and
     conversion steps (:class:`~chiptwin.chip.Recorder`; the same outputs, fewer events).
     """
@@ -116,7 +121,7 @@ def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
             "note": "carried pixels are at the expected level; the sites' outputs have the full "
                     "path's law, not its bits" if applies else
                     "not applied: binned photons, the default DSP program (no rtl, acc_bits, "
-                    "report_error) and no save_frames are needed (chiptwin.shortcuts)"}}
+                    "report_error) and no save_frames are needed (chiptwin.twin.shortcuts)"}}
     return Result(summary=summary, arrays=arrays, trace=rec, scenario=s, frames_path=frames_path)
 
 
@@ -188,7 +193,7 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
     as read (codes, or the expected CMS difference at the ``expected`` level) to a ``.npy`` file.
 
     ``carry_dark`` (default: the scenario's ``[run] carry_dark_pixels``)
-    takes the shortcut :mod:`chiptwin.shortcuts` names: pixels not kept that see no site light
+    takes the shortcut :mod:`chiptwin.twin.shortcuts` names: pixels not kept that see no site light
     above a tenth of their noise are not drawn but carried at the ``expected`` level; the sites'
     outputs are then equal in distribution to the full path's, not bit for bit.
     """
@@ -234,12 +239,12 @@ def _dsp_level(s: Scenario, keep_codes: bool) -> Pipeline:
     """The DSP at the scenario's level: float, bit-accurate fixed point, or the RTL; a program
     beyond today's chain (``[chip.dsp] program``) runs its further stages after it."""
     if not is_default(s.chip.dsp.program):
-        from chiptwin.programs import program_pipeline
+        from chiptwin.twin.programs import program_pipeline
 
         return program_pipeline(s, keep_codes)
     chain = chain_for(s.chip) if s.dsp_level in ("fixed", "rtl") else None
     if s.dsp_level == "rtl":
-        from chiptwin.rtl import RtlPipeline
+        from chiptwin.dsp.rtl import RtlPipeline
 
         return RtlPipeline(chain, report_error=s.chip.dsp.report_error, keep_codes=keep_codes)
     return Pipeline(s.dsp_level, chain, report_error=s.chip.dsp.report_error,
@@ -254,7 +259,7 @@ class _FrameReader:
     (:meth:`Scene.pixel_block`) and, at the ``binned`` and ``events`` levels, its codes in one
     call of :func:`chiptwin.pixel.binned_codes`, drawing what reading the frames one by one
     would. At the ``events`` level the site pixels' charge is counted by
-    :class:`~chiptwin.stages.EventPixels` (its own stream) and replaces their Poisson draws.
+    :class:`~chiptwin.twin.stages.EventPixels` (its own stream) and replaces their Poisson draws.
     Only the current block is held (and what the frame memory still holds of earlier ones).
     """
 

@@ -11,16 +11,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from chiptwin import dose_response, saturation, stages
 from chiptwin.config import Scenario, ScenarioError
 from chiptwin.detection import snr, window_sums
 from chiptwin.kinetics import pyro
-from chiptwin.programs import program_figures
+from chiptwin.twin import dose_response, saturation, stages
+from chiptwin.twin.programs import program_figures
 
 if TYPE_CHECKING:
     from chiptwin.chip import ChipRun, Schedule
     from chiptwin.dsp.pipeline import Pipeline
-    from chiptwin.scene import ChainOutput, Scene
+    from chiptwin.twin.scene import ChainOutput, Scene
 
 #: Chip flags under which per-site figures and calls are not to be trusted.
 INVALIDATING_FLAGS = frozenset({"memory_overflow", "dsp_cannot_keep_up", "adc_clipped"})
@@ -95,7 +95,7 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     if section is not None:
         section["cost"] = saturation.frame_cost(s, summary["chip"])
         summary["saturation"] = section
-    program_figures(s, scene, out, summary, arrays)  # [chip.dsp] program (chiptwin.programs)
+    program_figures(s, scene, out, summary, arrays)  # [chip.dsp] program (chiptwin.twin.programs)
     # A dropped frame makes the DSP average non-consecutive frames, as the chip would; the
     # figures are still reported, but not as trustworthy.
     summary["results_valid"] = not set(summary["chip"]["flags"]) & INVALIDATING_FLAGS
@@ -123,12 +123,12 @@ def expected_site_signal(s: Scenario, out: ChainOutput, idx: np.ndarray) -> np.n
 
 def _require_site_amounts(s: Scenario, scene: Scene) -> None:
     """Refuse figures from a scene whose light ignores ``[sites] amounts_fmol``: a run path that
-    prepares the scene without :func:`chiptwin.dose_response.scale_source` would report a dose
+    prepares the scene without :func:`chiptwin.twin.stages.scale_source` would report a dose
     response of equal amounts."""
     if not dose_response.honours_amounts(s, scene):
         raise ScenarioError(s.source, "sites.amounts_fmol", str(s.sites.amounts_fmol)[:40],
                             "per-site amounts are not applied by this run path (its scene was "
-                            "prepared without chiptwin.dose_response.scale_source)")
+                            "prepared without chiptwin.twin.stages.scale_source)")
 
 
 def _site_rows(s: Scenario, rc: np.ndarray, signal: np.ndarray, noise: np.ndarray,

@@ -4,9 +4,10 @@ Salama et al. 2004, §4: combining the kinetics, optics, sensor and post-process
 the minimum detectable analyte amount for a set of system parameters. A scenario asks for it by
 giving each site its own amount (``[sites] amounts_fmol``, 0 = a blank site); this module
 
-* scales each site's light by its amount (:func:`scale_source`): every closed-form assay's light
-  is proportional to its analyte (eqs. 5–19), so a site holding ``x`` of the ``[assay]`` amount
-  ``A`` emits ``x / A`` of its light, exactly;
+* checks that a scene's light per site follows its amount (:func:`honours_amounts`; the light is
+  scaled where it is made, :func:`chiptwin.twin.stages.scale_source`: every closed-form assay's
+  light is proportional to its analyte, eqs. 5–19, so a site holding ``x`` of the ``[assay]``
+  amount ``A`` emits ``x / A`` of its light, exactly);
 * turns the run's per-site estimates into the dose response and the limit of detection
   (:func:`dose_response_figures`): the blank's 3σ threshold (IUPAC: mean of the blank + 3 standard
   deviations), with σ from the noise model propagated through the DSP, checked against the
@@ -21,15 +22,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from chiptwin.config.budget import amount_key
 from chiptwin.constants import N_A
 from chiptwin.detection import snr
-from chiptwin.kinetics.pulse_train import PulseTrain
+from chiptwin.twin.stages import site_amounts_fmol, site_scale
 
 if TYPE_CHECKING:
     from chiptwin.config import Scenario
-    from chiptwin.kinetics.light_source import LightSource
-    from chiptwin.scene import Scene
+    from chiptwin.twin.scene import Scene
 
 #: What each assay kind doses (``[sites] amounts_fmol``).
 ANALYTES = {"atp": "ATP", "pyrosequencing": "template DNA", "luciferase_label": "luciferase",
@@ -37,45 +36,6 @@ ANALYTES = {"atp": "ATP", "pyrosequencing": "template DNA", "luciferase_label": 
 #: The blank's threshold in its standard deviations (IUPAC's limit of detection, k = 3).
 K_SIGMA = 3.0
 AMOL_PER_FMOL = 1e3
-
-
-def assay_amount_fmol(s: Scenario) -> float:
-    """The ``[assay]`` amount of the analyte (``dna_fmol``, ``atp_fmol``, ``luciferase_amol``, …)
-    in fmol: the amount every site holds unless ``[sites] amounts_fmol`` says otherwise."""
-    key = amount_key(s)
-    return getattr(s.assay, key) * (1e-3 if key.endswith("_amol") else 1.0)
-
-
-def site_amounts_fmol(s: Scenario, n_sites: int) -> np.ndarray:
-    """Analyte per site, fmol: ``[sites] amounts_fmol``, or the ``[assay]`` amount at each."""
-    if s.sites.amounts_fmol:
-        return np.asarray(s.sites.amounts_fmol, dtype=np.float64)
-    return np.full(n_sites, assay_amount_fmol(s))
-
-
-def site_scale(s: Scenario) -> np.ndarray | None:
-    """Each site's share of the ``[assay]`` amount's light, or None when every site holds it."""
-    if not s.sites.amounts_fmol:
-        return None
-    return np.asarray(s.sites.amounts_fmol, dtype=np.float64) / assay_amount_fmol(s)
-
-
-def scale_source(s: Scenario, source: LightSource) -> LightSource:
-    """The light of each site scaled to its amount (``[sites] amounts_fmol``); ``source`` itself
-    when every site holds the ``[assay]`` amount.
-
-    The closed forms are sums of pulses ``A·e^{−k t}`` with ``A`` proportional to the analyte
-    (eqs. 5–19), so scaling each pulse's amplitude is exact. (The cascade is not linear in the
-    amount; :func:`chiptwin.config.consistency` refuses amounts with it.)
-    """
-    scale = site_scale(s)
-    if scale is None:
-        return source
-    if not isinstance(source, PulseTrain):
-        raise TypeError(f"per-site amounts scale closed-form light, not {type(source).__name__}")
-    return PulseTrain(site=source.site, onset_s=source.onset_s,
-                      amplitude_per_s=source.amplitude_per_s * scale[source.site],
-                      decay_per_s=source.decay_per_s, n_sites=source.n_sites)
 
 
 def honours_amounts(s: Scenario, scene: Scene) -> bool:
@@ -154,7 +114,7 @@ def dose_response_figures(s: Scenario, sites: list[dict], expected: np.ndarray
     """``summary['dose_response']`` and its arrays, from the per-site rows of a run.
 
     ``expected`` is each site's signal as the same estimator gives it on the DSP's expected
-    outputs (:func:`chiptwin.results.expected_site_signal`): the chip's calibration curve, gain
+    outputs (:func:`chiptwin.twin.results.expected_site_signal`): the chip's calibration curve, gain
     non-uniformity and cross-talk included, with no noise.
     """
     amounts = site_amounts_fmol(s, len(sites)) * AMOL_PER_FMOL

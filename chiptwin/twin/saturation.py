@@ -8,7 +8,7 @@ frame of every flow. This module reports, per site (``summary['saturation']``):
 * the expected charge of its pixel in every frame (before the clip) and how many frames reach the
   full well — the closed form, at every photon level;
 * at the ``events`` level, the time each well filled, from the arrival times of its electrons
-  (:class:`chiptwin.stages.EventPixels`), per flow: the time into the flow at which the well
+  (:class:`chiptwin.twin.stages.EventPixels`), per flow: the time into the flow at which the well
   first filled and how many of the flow's frames filled, beside the closed-form fill time
   ``t*`` with ``Λ(t*) = full well`` (Λ: the expected electrons since the window opened);
 * what the chip spends on its frames: frame period, frames, frame memory and DSP load, so that a
@@ -26,7 +26,7 @@ from chiptwin.pixel import mean_electrons
 
 if TYPE_CHECKING:
     from chiptwin.config import Scenario
-    from chiptwin.scene import ChainOutput, Scene
+    from chiptwin.twin.scene import ChainOutput, Scene
 
 #: The section is reported when a site pixel's expected charge comes within this share of the
 #: full well in some frame (or at the ``events`` level, which times the filling).

@@ -49,7 +49,7 @@ def dsp_report(s: Scenario, rng: np.random.Generator) -> dict[str, Any]:
 
 def scenario_cases(s: Scenario) -> dict[str, Case]:
     """The chip's own samples through each routine, with the chain's register formats."""
-    from chiptwin.run import Recorder, prepare, simulate, stage_rng
+    from chiptwin.twin.runner import Recorder, prepare, simulate, stage_rng
 
     scene = prepare(s)
     out = simulate(s, scene, "binned", stage_rng(s.scenario.seed, "pixel"), Recorder(),

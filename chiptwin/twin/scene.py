@@ -1,8 +1,9 @@
 """The types a run's stages share: the prepared scene, the chip model's output, stage timing and the
 random stream of each stage.
 
-They live below both :mod:`chiptwin.run` (which makes them) and :mod:`chiptwin.results` (which reads
-them), and :mod:`chiptwin.study` reuses a prepared :class:`Scene` across the replicates of a point.
+They live below both :mod:`chiptwin.twin.runner` (which makes them) and
+:mod:`chiptwin.twin.results` (which reads them), and :mod:`chiptwin.study` reuses a prepared
+:class:`Scene` across the replicates of a point.
 """
 
 from __future__ import annotations
@@ -15,10 +16,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from chiptwin import pixel, stages
+from chiptwin import pixel
 from chiptwin.chip import ChipRun, Schedule
 from chiptwin.dsp.pipeline import Pipeline
 from chiptwin.limits import frames_per_block
+from chiptwin.twin import stages
 
 
 def stage_rng(seed: int, stage: str) -> np.random.Generator:
@@ -80,7 +82,7 @@ class Scene:
 
     The light per pixel is ``coupling @ site_photons``; it is made a block of frames at a time
     (:meth:`pixel_block`), never held for the whole run unless the scene is small. A scene is not
-    changed after :func:`chiptwin.run.prepare` made it (derive another with
+    changed after :func:`chiptwin.twin.runner.prepare` made it (derive another with
     ``dataclasses.replace``): what is computed from it once is kept with it and reused by every
     replicate that runs on it.
     """
@@ -226,7 +228,7 @@ class ChainOutput:
     peak_frame_e: np.ndarray | None = None
     peak_block: int = 0
     #: Pixels the run did not draw but carried at the ``expected`` level
-    #: (:mod:`chiptwin.shortcuts`, carried dark pixels); 0 on the full path.
+    #: (:mod:`chiptwin.twin.shortcuts`, carried dark pixels); 0 on the full path.
     carried_pixels: int = 0
 
     def columns(self, idx: np.ndarray) -> np.ndarray:

@@ -25,7 +25,7 @@ the mean over replicates of the signed relative difference, so where the levels 
 noise averages out (the per-replicate figures above keep it).
 
 The ``shortcut`` row runs the reference's levels at ``binned`` photons with the carried-dark-pixels
-shortcut (:mod:`chiptwin.shortcuts`). When the scene leaves stages to ``auto`` (with ``[run]
+shortcut (:mod:`chiptwin.twin.shortcuts`). When the scene leaves stages to ``auto`` (with ``[run]
 error_budget``), the levels it picks are one more row, ``auto``, with its own error estimate
 beside the measured one.
 """
@@ -39,20 +39,20 @@ from typing import Any
 
 import numpy as np
 
-from chiptwin import shortcuts
 from chiptwin.config import Scenario, ScenarioError
 from chiptwin.config.consistency import check_consistency
-from chiptwin.fidelity import (
+from chiptwin.detection.stats import mean_estimate
+from chiptwin.fidelity.auto import resolve, run
+from chiptwin.twin import shortcuts
+from chiptwin.twin.levels import (
     LEVELS,
     SEEN_SNR_POWER,
     figure_errors,
     figures,
     reference_levels,
-    resolve,
     with_levels,
 )
-from chiptwin.run import chip_sensor, run
-from chiptwin.study.stats import mean_estimate
+from chiptwin.twin.runner import chip_sensor
 
 #: Stages whose levels all draw the same random numbers for the same seed (the photon levels
 #: draw differently: none, counts, arrival times; the shot levels a normal or a Poisson count),
@@ -111,7 +111,7 @@ class Rung:
     crn: bool = True
     skipped: str = ""
     estimate: dict[str, float | None] | None = None  # auto's estimated errors
-    carry_dark: bool = False  # the carried-dark-pixels shortcut (chiptwin.shortcuts)
+    carry_dark: bool = False  # the carried-dark-pixels shortcut (chiptwin.twin.shortcuts)
 
 
 def _label(levels: dict[str, str]) -> str:
@@ -138,7 +138,7 @@ def plan(s: Scenario, reference: dict[str, str] | None = None) -> list[Rung]:
                       carry_dark=True))
     if not shortcuts.applies(with_levels(s, binned), "binned", np.zeros(1), False, False):
         rungs[-1].skipped = ("the shortcut needs the default DSP program and no rtl, acc_bits "
-                             "or report_error (chiptwin.shortcuts)")
+                             "or report_error (chiptwin.twin.shortcuts)")
     if s.run.fidelity.auto_stages():  # the levels auto picks for the scene's budget
         choice = resolve(s)[1]
         same = all(choice.levels[st] == ref[st] for st in ("photons", "shot"))
@@ -273,7 +273,7 @@ def write_ladder(ladder: dict[str, Any], out_dir) -> None:
     ``ladder.md`` into ``out_dir``, replacing a previous ladder whole."""
     import json
 
-    from chiptwin.report import check_out_dir, replacing
+    from chiptwin.config.outputs import check_out_dir, replacing
 
     out = check_out_dir(out_dir, marker="ladder.json")
     with replacing(out) as tmp:

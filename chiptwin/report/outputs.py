@@ -7,77 +7,17 @@ end, so a crashed or refused run never leaves a half-written folder that looks c
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import tempfile
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from chiptwin.programs import program_plots
+from chiptwin.config.outputs import check_out_dir, replacing
+from chiptwin.twin.programs import program_plots
 
 if TYPE_CHECKING:
-    from chiptwin.run import Result
-
-
-OUTPUT_MARK = "summary.json"
-"""A folder holding this file is a previous chiptwin output, which a new run may replace."""
-
-
-def check_out_dir(out_dir: str | Path, marker: str = OUTPUT_MARK) -> Path:
-    """Where a run may write, checked before it starts; returns the resolved folder.
-
-    A run replaces its output folder whole, so the folder must be new, empty, or a previous
-    chiptwin output (it holds ``marker``: ``summary.json`` for a run, ``results.sqlite`` for a
-    study); never the working folder or one of its parents.
-
-    Raises
-    ------
-    ScenarioError
-        Naming ``--out``, the folder, and what is allowed.
-    """
-    out = Path(out_dir).resolve()
-    cwd = Path.cwd().resolve()
-    if out == cwd or out in cwd.parents:
-        _refuse(out_dir, "must not be the working folder or one of its parents")
-    if out.exists():
-        if not out.is_dir():
-            _refuse(out_dir, "is a file; must be a folder (new, empty, or a previous output)")
-        if any(out.iterdir()) and not (out / marker).is_file():
-            _refuse(out_dir, f"holds files but no {marker}: it is not a previous chiptwin "
-                             "output, and chiptwin writes over its outputs")
-    try:  # the folder that will hold it (never the output folder itself, written last)
-        out.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        _refuse(out_dir, f"cannot be created ({exc.strerror})")
-    if not os.access(out.parent, os.W_OK | os.X_OK):
-        _refuse(out_dir, f"cannot be created: {out.parent} is not writable")
-    return out
-
-
-def _refuse(out_dir: str | Path, allowed: str) -> None:
-    from chiptwin.config import ScenarioError
-
-    raise ScenarioError("chiptwin", "--out", str(out_dir), allowed)
-
-
-@contextmanager
-def replacing(out: Path) -> Iterator[Path]:
-    """A fresh temporary folder beside ``out`` to write outputs into: when the block ends it
-    replaces ``out`` whole; on any error it is removed, so a crashed or refused run never leaves
-    a half-written folder that looks complete."""
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
-        yield tmp
-        if out.exists():
-            shutil.rmtree(out)
-        tmp.rename(out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+    from chiptwin.twin.runner import Result
 
 
 def write_outputs(result: Result, out_dir: str | Path) -> Path:
@@ -148,7 +88,7 @@ def make_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
     ax.step(a["memory_t_s"], a["memory_frames"], where="post")
     ax.set(xlabel="time (s)", ylabel="frames", title="Frame memory occupancy")
     plots.append(_save(fig, folder, "memory.png", "Frame memory occupancy"))
-    plots += program_plots(result, folder)  # [chip.dsp] program figures (chiptwin.programs)
+    plots += program_plots(result, folder)  # [chip.dsp] program figures (chiptwin.twin.programs)
     return plots
 
 

@@ -3,7 +3,7 @@ PSF), the pipeline the chip model runs, and the figures the summary reports.
 
 The stages and their costs are :mod:`chiptwin.dsp.program`; the pipeline is
 :mod:`chiptwin.dsp.program_pipeline`. This module knows the scenario (assay windows, optics),
-so it sits beside :mod:`chiptwin.run`, above the DSP package.
+so it sits beside :mod:`chiptwin.twin.runner`, above the DSP package.
 
 Figures (``summary['dsp_program']``, and for programs with ``wiener`` ``summary['crosstalk']``,
 with ``bin_rows`` ``summary['column_profile']``):
@@ -27,15 +27,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from chiptwin import stages
 from chiptwin.chip import Schedule
+from chiptwin.config.budget import window_edges
 from chiptwin.config.fields import ScenarioError
-from chiptwin.dsp.filters import KineticsConfig, WienerConfig, design_wiener
+from chiptwin.dsp.filters import WienerConfig, design_wiener
 from chiptwin.dsp.pipeline import Pipeline
 from chiptwin.dsp.program import (
     DECAY_KEYS,
-    KINETICS_COEF,
-    KINETICS_NORM_BITS,
     SPATIAL,
     bin_factor,
     grid_shape,
@@ -50,11 +48,13 @@ from chiptwin.dsp.program_pipeline import (
     SpatialPlan,
     spatial_matrix,
 )
+from chiptwin.dsp.program_pipeline import kinetics_plan as plan_kinetics
 from chiptwin.dsp.reference import wiener_matrix
+from chiptwin.twin import stages
 
 if TYPE_CHECKING:
     from chiptwin.config import Scenario
-    from chiptwin.scene import ChainOutput, Scene
+    from chiptwin.twin.scene import ChainOutput, Scene
 
 #: A neighbour is resolved when its leak into a site is at most this (−10 dB: a neighbour as
 #: bright as the site adds ≤ 10 % to it, below a 1-mer/0-mer call's half-way threshold). Choice.
@@ -68,43 +68,10 @@ PITCH_SCAN = np.geomspace(0.1, 4.0, 60)
 # ---------------------------------------------------------------------------------------------
 
 
-def window_edges(s: Scenario) -> np.ndarray:
-    """The assay's windows: a pyrosequencing run's flows, else [start, end of run]. Unit: s."""
-    a = s.assay
-    if a.kind == "pyrosequencing":
-        return a.start_s + a.flow_period_s * np.arange(a.n_flows + 1)
-    return np.array([a.start_s, s.run.duration_s])
-
-
 def kinetics_plan(s: Scenario, sch: Schedule) -> KineticsPlan:
-    """Windows of the kinetics stage and its weights ``exp(−k t_j)`` at each frame's start
-    relative to its window's (the same table for every window: one weight ROM)."""
-    edges, d = window_edges(s), s.chip.dsp
-    k = getattr(s.assay, DECAY_KEYS[s.assay.kind])
-    frames = np.arange(sch.dark_frames, sch.n_frames)
-    t0 = np.array([sch.window_s(f)[0] for f in frames])
-    t1 = np.array([sch.window_s(f)[1] for f in frames])
-    win = np.searchsorted(edges, t0, side="right") - 1
-    inside = (win >= 0) & (win < len(edges) - 1)
-    inside &= t1 <= edges[np.clip(win + 1, 0, len(edges) - 1)] + 1e-9
-    win = np.where(inside, win, -1)
-    if not (win >= 0).any():
-        raise ValueError("kinetics: no frame of the run lies inside an assay window")
-    counts = np.bincount(win[win >= 0], minlength=len(edges) - 1)
-    full = counts.max()
-    win = np.where((win >= 0) & (counts[np.maximum(win, 0)] == full), win, -1)  # cut windows
-    first = win == win[win >= 0][0]
-    t_s = tuple(float(v) for v in t0[first] - edges[win[first][0]])
-    last = np.zeros(len(win), bool)
-    idx = np.flatnonzero(win >= 0)
-    last[idx] = np.append(win[idx][1:] != win[idx][:-1], True)
-    fmts = program_formats(s.chip)
-    cfg = KineticsConfig(t_s=t_s, k_per_s=k, in_fmt=fmts.front.average.out_fmt,
-                         coef_fmt=KINETICS_COEF, acc_fmt=fmts.kinetics_acc,
-                         norm_word_bits=KINETICS_NORM_BITS, out_fmt=fmts.kinetics_out,
-                         rounding=d.rounding, overflow=d.overflow, acc_overflow=d.acc_overflow)
-    w = np.exp(-k * np.array(t_s))
-    return KineticsPlan(cfg, win, last, float(w.sum()) / d.average_frames)
+    """The scenario's kinetics stage: :func:`chiptwin.dsp.program_pipeline.kinetics_plan` over
+    the assay's windows (:func:`chiptwin.config.budget.window_edges`) and its decay rate."""
+    return plan_kinetics(s.chip, sch, window_edges(s), getattr(s.assay, DECAY_KEYS[s.assay.kind]))
 
 
 def grid_coupling(s: Scenario) -> np.ndarray:
@@ -167,7 +134,7 @@ def program_pipeline(s: Scenario, keep_codes: bool = False) -> ProgramPipeline:
     chain = fmts.front if level in ("fixed", "rtl") else None
     report = chip.dsp.report_error
     if level == "rtl":
-        from chiptwin.rtl import RtlPipeline
+        from chiptwin.dsp.rtl import RtlPipeline
 
         front = RtlPipeline(chain, report_error=False, keep_codes=keep_codes)
     else:

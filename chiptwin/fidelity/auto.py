@@ -1,0 +1,247 @@
+"""``auto`` fidelity's calibrations: the runs of a scene that measure a level's error.
+
+The levels, the choice and the estimates cache are :mod:`chiptwin.twin.levels` (below the twin's
+runner, which needs them to run a resolved scenario); this module runs scenes, so it sits above
+the twin: :class:`Calibrations` measures what the cache lacks (the expected-level runs of the
+kinetics and optics calibrations, the analytic bounds of the photons, shot and DSP levels on the
+scene's own figures), :func:`resolve` resolves a scenario's ``auto`` keys with it and
+:func:`run` is :func:`chiptwin.twin.runner.run` with ``auto`` resolved so.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from chiptwin.chip import Recorder
+from chiptwin.config import Scenario
+from chiptwin.twin import runner, stages
+from chiptwin.twin.levels import (
+    EXPECTED_SDS,
+    FIGURES,
+    AutoChoice,
+    CachedEstimates,
+    Estimate,
+    figure_errors,
+    figures,
+    gaussian_tv,
+    with_levels,
+)
+from chiptwin.twin.levels import resolve as _resolve
+from chiptwin.twin.results import detect
+
+
+def resolve(s: Scenario, cache: Path | None = None) -> tuple[Scenario, AutoChoice | None]:
+    """``s`` with every ``auto`` stage set to a level, and the choice; ``(s, None)`` when no
+    stage is ``auto``. Levels whose error on this scene is not in ``cache`` (default in the
+    user cache, :func:`chiptwin.twin.levels.cache_path`) are calibrated and cached."""
+    return _resolve(s, cache, Calibrations)
+
+
+def run(scenario: Scenario | str | Path, overrides: Iterable[str] = (), seed: int | None = None,
+        progress: Callable[[int, int], None] | None = None) -> runner.Result:
+    """:func:`chiptwin.twin.runner.run` with ``auto`` keys resolved by :func:`resolve`: the
+    ``run`` of the CLI and of ``chiptwin.run``."""
+    return runner.run(scenario, overrides, seed, progress, resolve=resolve)
+
+
+class Calibrations(CachedEstimates):
+    """Each level's :class:`Estimate` on one scene, calibrated when the cache does not hold it
+    (the expected-level run the calibrations share is made once)."""
+
+    def __init__(self, s: Scenario, ref: dict[str, str], cache: Path | None) -> None:
+        super().__init__(s, ref, cache)
+        self._runs: dict[tuple, _ExpectedRun] = {}
+
+    def calibrate(self, stage: str, level: str) -> Estimate:
+        """The level's error on this scene, measured (kinetics, optics) or bounded."""
+        return getattr(self, "_" + stage)(level)
+
+    # -- calibrated stages -------------------------------------------------------------------
+
+    def _kinetics(self, level: str) -> Estimate:
+        return self._calibrated("kinetics", level, "calibration: the expected-level run at "
+                                f"{level} against {self.ref['kinetics']}")
+
+    def _optics(self, level: str) -> Estimate:
+        est = self._calibrated("optics", level, f"calibration: the expected-level run at {level} "
+                               f"against {self.ref['optics']}")
+        return Estimate(est.errors, est.how + f"; psf cross-talk at the site pixels "
+                        f"{_cross_talk_share(self.s):.3g} of their light")
+
+    def _calibrated(self, stage: str, level: str, how: str) -> Estimate:
+        base = self._expected_levels()  # its stage is at the reference: that side is the base
+        cheap, ref = (self._expected({**base, stage: lv}) for lv in (level, self.ref[stage]))
+        measured = figure_errors(cheap.figures, ref.figures)
+        return Estimate({f: float(measured.get(f, 0.0)) for f in FIGURES}, how)  # no flows: 0
+
+    # -- analytic stages ---------------------------------------------------------------------
+
+    def _photons(self, level: str) -> Estimate:
+        if level == "binned":  # against events
+            return Estimate.exact("binned counts have the events level's law (Poisson counts "
+                                  "of the same means, the same full-well clip)")
+        base = self._expected(self._expected_levels())
+        summary, out, e_per_lsb = base.summary, base.out, base.e_per_lsb
+        sites = summary["sites"]
+        k = EXPECTED_SDS
+        signal_rel = max((st["signal_sd_e"] / abs(st["signal_e"]) for st in sites
+                          if st["signal_e"]), default=math.inf)
+        errors = {"signal_rel": k * signal_rel, "noise_rel": 0.0,
+                  "dsp_lsb": k * float(np.sqrt(np.max(out.var_e2, initial=0.0))) / e_per_lsb}
+        flows = summary.get("flows")
+        if flows:  # a flow value v = F / K: its spread from the flow's and the key's
+            key_e, key_sd = sites[0]["signal_e"], sites[0]["signal_sd_e"]
+            errors["flow_value_abs"] = k * max(
+                math.hypot(f["noise_e"], f["value"] * key_sd) / key_e for f in flows)
+        else:
+            errors["flow_value_abs"] = 0.0
+        return Estimate(_with_snr(errors), f"expected reports each figure's mean, the "
+                        f"reference's figure strays {k:g} σ from it (σ_signal/signal "
+                        f"{signal_rel:.3g})")
+
+    def _shot(self, level: str) -> Estimate:
+        lam = self._min_site_mean_e()
+        tv = gaussian_tv(lam)
+        base = self._expected(self._expected_levels())
+        summary, out, e_per_lsb = base.summary, base.out, base.e_per_lsb
+        flows = summary.get("flows") or []
+        top = max((abs(f["value"]) for f in flows), default=0.0)
+        errors = {"signal_rel": tv, "noise_rel": tv, "flow_value_abs": 2 * tv * top,
+                  "dsp_lsb": 2 * tv * float(np.sqrt(np.max(out.var_e2, initial=0.0)))
+                  / e_per_lsb}
+        return Estimate(_with_snr(errors), f"TV distance to Poisson {tv:.3g} at the smallest "
+                        f"mean charge of a site pixel in a frame, {lam:.4g} e⁻")
+
+    def _dsp(self, level: str) -> Estimate:
+        if level == "fixed":  # against rtl
+            return Estimate.exact("fixed equals the RTL bit for bit (co-simulated)")
+        from chiptwin.dsp.fixed import accumulator_bits_needed
+        from chiptwin.dsp.pipeline import chain_for
+        from chiptwin.dsp.program import DEFAULT_PROGRAM, is_default
+
+        d = self.s.chip.dsp
+        chain = chain_for(self.s.chip)
+        if d.acc_bits and d.acc_bits < accumulator_bits_needed(chain.average.in_fmt,
+                                                               d.average_frames):
+            return Estimate(dict.fromkeys(FIGURES, math.inf),
+                            f"the {d.acc_bits}-bit N-frame accumulator can wrap: fixed differs "
+                            "from float without bound")
+        lsb = _rounding_bound_lsb(chain, d.cms_samples, d.n_dark_frames, d.average_frames)
+        how = ("M, K, N powers of two: the fixed chain is exact" if lsb == 0 else
+               f"the chain's rounding, at most {lsb:.3g} LSB per output")
+        if not is_default(d.program):
+            later = self._program_bound_lsb()
+            lsb += later
+            further = [st for st in d.program if st not in DEFAULT_PROGRAM]
+            how += (f"; the program's further stages ({', '.join(further)}) at most "
+                    f"{later:.3g} LSB (their analytic bounds on this scene's data, calibrated)")
+        base = self._expected(self._expected_levels())
+        e_per_lsb = base.e_per_lsb
+        signal = min(abs(st["signal_e"]) for st in base.summary["sites"]) or math.inf
+        errors = {"dsp_lsb": lsb, "signal_rel": lsb * e_per_lsb / signal, "noise_rel": 0.0,
+                  "flow_value_abs": 2 * lsb * e_per_lsb / signal}
+        return Estimate(_with_snr(errors), how)
+
+    def _program_bound_lsb(self) -> float:
+        """The sum of the analytic bounds of the program's stages after the chain (kinetics,
+        bin_rows, fir8, wiener: coefficient quantisation and rounding, which depend on the
+        data), from one fixed-point run of the scene with ``report_error``. The chain's
+        own bound is not in it (that is :func:`_rounding_bound_lsb`)."""
+        sv = with_levels(self.s, {**self.ref, "photons": "binned", "dsp": "fixed"})
+        sv = replace(sv, chip=replace(sv.chip, dsp=replace(sv.chip.dsp, report_error=True)))
+        bounds = runner.run(sv).summary["dsp_program"].get("stage_error_bounds", {})
+        return float(sum(b["bound_lsb"] for b in bounds.values()))
+
+    # -- the scene at the expected level -----------------------------------------------------
+
+    def _expected_levels(self) -> dict[str, str]:
+        return {**self.ref, "photons": "expected", "dsp": "float", "shot": "poisson"}
+
+    def _expected(self, levels: dict[str, str]) -> _ExpectedRun:
+        """The scene at ``levels`` and the expected photon level, made once per levels."""
+        key = tuple(sorted(levels.items()))
+        if key not in self._runs:
+            self._runs[key] = _ExpectedRun.of(self.s, levels)
+        return self._runs[key]
+
+    def _min_site_mean_e(self) -> float:
+        base = self._expected(self._expected_levels())
+        scene, s = base.scene, base.scenario
+        idx = stages.site_pixel_indices(s)
+        t_int, gain = s.chip.timing.t_int_s, s.chip.adc.gain_error
+        lam, b = math.inf, scene.block_frames
+        for start in range(0, scene.sch.n_frames, b):
+            block = scene.pixel_block(t_int, gain, start, min(start + b, scene.sch.n_frames))
+            lam = min(lam, float(np.min(block.mean_e[:, idx])))
+        return lam
+
+
+@dataclass
+class _ExpectedRun:
+    """A scene run at the expected photon level (no draws): its scene, chain output, summary
+    and the ladder's figures."""
+
+    scenario: Scenario
+    scene: Any
+    out: Any
+    summary: dict[str, Any]
+    figures: dict[str, np.ndarray]
+
+    @property
+    def e_per_lsb(self) -> float:
+        return self.scene.sensor.e_per_lsb
+
+    @classmethod
+    def of(cls, s: Scenario, levels: dict[str, str]) -> _ExpectedRun:
+        sv = with_levels(s, levels)
+        scene = runner.prepare(sv)
+        out = runner.simulate(sv, scene, "expected", runner.stage_rng(sv.scenario.seed, "pixel"),
+                              Recorder(),
+                       sites=stages.site_pixel_indices(sv))
+        summary, arrays = detect(sv, scene, out)
+        return cls(sv, scene, out, summary, figures(summary, arrays, scene.sensor.e_per_lsb))
+
+
+def _with_snr(spent: dict[str, float]) -> dict[str, float]:
+    """Add ``snr_rel`` (power SNR S²/N²) and ``snr_db`` from the signal and noise errors."""
+    s, n = spent["signal_rel"], spent["noise_rel"]
+    snr_rel = (1 + s) ** 2 / (1 - n) ** 2 - 1 if n < 1 else math.inf
+    return {**spent, "snr_rel": snr_rel, "snr_db": 10 * math.log10(1 + snr_rel)}
+
+
+def _rounding_bound_lsb(chain, m: int, k: int, n: int) -> float:
+    """Largest |fixed − float| of an N-frame average, in ADC LSB: half an output LSB per step
+    that rounds (a division by M, K or N that is not a power of two), carried through the
+    subtraction (CMS frame minus dark reference) and the averages (means of bounded errors)."""
+    def half_ulp(fmt, divisor: int) -> float:
+        return 0.0 if divisor & (divisor - 1) == 0 else 0.5 * 2.0 ** -fmt.frac_bits
+
+    cms = half_ulp(chain.cms.out_fmt, m)
+    dark = cms + half_ulp(chain.dark.out_fmt, k)
+    exact_diff = chain.background.out_fmt.frac_bits >= max(chain.cms.out_fmt.frac_bits,
+                                                           chain.dark.out_fmt.frac_bits)
+    background = cms + dark + (0.0 if exact_diff else 0.5 * 2.0 ** -chain.background.out_fmt
+                               .frac_bits)
+    return background + half_ulp(chain.average.out_fmt, n)
+
+
+def _cross_talk_share(s: Scenario) -> float:
+    """The largest share of a site pixel's light that comes from other sites (psf coupling)."""
+    c = stages.coupling(with_levels(s, {"optics": "psf"}))
+    idx = stages.site_pixel_indices(s)
+    rows = c[idx]
+    rows = rows.toarray() if hasattr(rows, "toarray") else np.asarray(rows)
+    total = rows.sum(axis=1)
+    own = rows[np.arange(len(idx)), np.arange(len(idx))]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.where(total > 0, 1 - own / total, 0.0)
+    return float(np.max(share, initial=0.0))
+
+
+__all__ = ["Calibrations", "resolve", "run"]
