@@ -44,7 +44,7 @@ from chiptwin.kinetics.closed_form import (
     substrate_detection_photons,
     substrate_detection_rate,
 )
-from chiptwin.kinetics.light_source import LightSource
+from chiptwin.kinetics.light_source import LightSource, Replicated
 from chiptwin.kinetics.pulse_train import PulseTrain, superpose
 from chiptwin.kinetics.pyro import (
     FLOW_ORDER_454,
@@ -104,6 +104,7 @@ __all__ = [
     "PYRO_TURNOVER_PER_S",
     "RONAGHI_PHOTONS_PER_INCORPORATION",
     "LightSource",
+    "Replicated",
     "PulseTrain",
     "atp_assay",
     "atp_assay_photons",

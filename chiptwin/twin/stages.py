@@ -15,7 +15,7 @@ from chiptwin import kinetics, limits, optics, photons, pixel
 from chiptwin.config import Scenario
 from chiptwin.config.budget import amount_key
 from chiptwin.kinetics import pyro
-from chiptwin.kinetics.light_source import LightSource
+from chiptwin.kinetics.light_source import LightSource, Replicated
 from chiptwin.kinetics.pulse_train import PulseTrain
 
 FMOL, AMOL = 1e-15, 1e-18
@@ -60,6 +60,8 @@ def light_source(s: Scenario) -> LightSource:
     n = len(site_pixels(s))
     if s.run.fidelity.kinetics == "cascade":
         return _cascade_source(s, n)
+    if n > 1 and site_scale(s) is None:  # identical sites: one evaluation, shared
+        return Replicated(_closed_form_source(s, 1), n)
     return scale_source(s, _closed_form_source(s, n))
 
 
