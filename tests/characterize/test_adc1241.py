@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from chiptwin.characterize import adc1241 as a
-from chiptwin.characterize.adc1241_plots import make_plots
+from chiptwin.characterize.adc1241.plots import make_plots
 
 V_MIN, V_MAX = 0.0, 1.0
 
@@ -87,7 +87,8 @@ def test_ideal_sine_sinad_enob(bits):
     ENOB = N within 0.02 bit, by the three- and the four-parameter fit."""
     rec = a.bench_records(bits, V_MIN, V_MAX, 1 << 14)
     codes = convert(rec.fit_sine_V, ideal_table(bits))
-    three, four = a.dynamic_test(codes, bits, cycles=rec.fit_sine.cycles), a.dynamic_test(codes, bits)
+    three = a.dynamic_test(codes, bits, cycles=rec.fit_sine.cycles)
+    four = a.dynamic_test(codes, bits)
     for dyn in (three, four):
         assert abs(dyn.sinad_db - (6.02 * bits + 1.76)) < 0.1
         assert abs(dyn.enob_bits - bits) < 0.02

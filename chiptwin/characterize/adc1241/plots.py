@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from chiptwin.characterize.adc1241 import HistogramResult
-from chiptwin.characterize.adc1241_sine import DynamicResult
+from chiptwin.characterize.adc1241.histogram import HistogramResult
+from chiptwin.characterize.adc1241.sine import DynamicResult
 
 
 def make_plots(hist: HistogramResult | None, dyn: DynamicResult | None, folder: str | Path,

@@ -123,7 +123,7 @@ def transition_noise(levels_V: ArrayLike, codes: ArrayLike, bits: int, v_min_V: 
 def _covered(x: NDArray[np.float64], mu: NDArray[np.float64], sig: NDArray[np.float64]
              ) -> NDArray[np.bool_]:
     ok = np.zeros(mu.size, dtype=bool)
-    for i, (m, s) in enumerate(zip(mu, sig)):
+    for i, (m, s) in enumerate(zip(mu, sig, strict=True)):
         if not (np.isfinite(m) and np.isfinite(s) and s > 0):
             continue
         inside = x[(x > m - 4 * s) & (x < m + 4 * s)]
