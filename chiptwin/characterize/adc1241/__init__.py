@@ -36,6 +36,7 @@ from chiptwin.characterize.adc1241.histogram import (
     bench_records,
     converter_figures,
     dc_sweep_V,
+    histogram_from_counts,
     histogram_samples,
     histogram_test,
     ramp_V,
@@ -57,6 +58,7 @@ from chiptwin.characterize.adc1241.sine import (
 
 __all__ = ["BenchRecords", "DynamicResult", "HistogramResult", "Ramp", "Sine", "SineFit",
            "Spectrum", "TransitionNoise", "bench_records", "coherent_cycles",
-           "converter_figures", "dc_sweep_V", "dynamic_test", "histogram_samples",
+           "converter_figures", "dc_sweep_V", "dynamic_test", "histogram_from_counts",
+           "histogram_samples",
            "histogram_test", "ramp_V", "sine_V", "sine_fit_3", "sine_fit_4", "spectrum",
            "summarize", "to_jsonable", "transition_noise"]

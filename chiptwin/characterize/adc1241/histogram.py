@@ -17,8 +17,8 @@ from chiptwin.characterize.adc1241.sine import DynamicResult, coherent_cycles
 from chiptwin.pixel._checks import check_int, check_scalar
 
 __all__ = ["BenchRecords", "HistogramResult", "Ramp", "Sine", "bench_records", "converter_figures",
-           "dc_sweep_V", "histogram_samples", "histogram_test", "ramp_V", "sine_V", "summarize",
-           "to_jsonable"]
+           "dc_sweep_V", "histogram_from_counts", "histogram_samples", "histogram_test",
+           "ramp_V", "sine_V", "summarize", "to_jsonable"]
 
 #: Widest converter analysed (as :data:`chiptwin.pixel.adc.MAX_BITS`). Unit: bit.
 MAX_BITS: int = 24
@@ -258,15 +258,28 @@ def histogram_test(codes: ArrayLike, bits: int, v_min_V: float, v_max_V: float,
     h̄ exactly (h̄ the mean interior count), ≈ 1/√h̄ — the standard's binomial formula. A code
     with no hit is given the width of one hit, T'/(S·Q̄), as its sigma.
     """
-    n, lo, q = _check_range(bits, v_min_V, v_max_V)
-    if not isinstance(stimulus, (Ramp, Sine)):
-        raise ValueError(f"stimulus = {stimulus!r}: must be a Ramp or a Sine")
+    n, _, _ = _check_range(bits, v_min_V, v_max_V)
     c = np.asarray(codes).ravel()
     if c.size == 0 or not np.issubdtype(c.dtype, np.integer):
         raise ValueError("codes: must be a non-empty array of integer codes")
     if c.min() < 0 or c.max() > 2**n - 1:
         raise ValueError(f"codes: must lie in [0, {2**n - 1}], found [{c.min()}, {c.max()}]")
-    counts = np.bincount(c, minlength=2**n).astype(np.int64)
+    return histogram_from_counts(np.bincount(c, minlength=2**n), bits, v_min_V, v_max_V,
+                                 stimulus)
+
+
+def histogram_from_counts(counts: ArrayLike, bits: int, v_min_V: float, v_max_V: float,
+                          stimulus: Ramp | Sine) -> HistogramResult:
+    """:func:`histogram_test` from the hits per code (``counts``, length 2^N), for a bench that
+    accumulates its histograms record by record instead of keeping the codes."""
+    n, lo, q = _check_range(bits, v_min_V, v_max_V)
+    if not isinstance(stimulus, (Ramp, Sine)):
+        raise ValueError(f"stimulus = {stimulus!r}: must be a Ramp or a Sine")
+    counts = np.asarray(counts)
+    if counts.shape != (2**n,) or not np.issubdtype(counts.dtype, np.integer) or \
+            counts.min() < 0:
+        raise ValueError(f"counts: must be {2**n} non-negative integer hits, one per code")
+    counts = counts.astype(np.int64)
     if counts[0] == 0 or counts[-1] == 0:
         raise ValueError("codes: both end codes must be hit: the stimulus must overdrive the "
                          f"range (hits: code 0: {counts[0]}, code {2**n - 1}: {counts[-1]})")
