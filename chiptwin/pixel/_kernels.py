@@ -178,10 +178,107 @@ def adc_code(volts: float, v_min: float, lsb: float, gain: float, offset: float,
 
 
 @NJIT
+def table_code(x: float, levels: np.ndarray, lut: np.ndarray, lut_base: int, r: int) -> int:
+    """Code of the continuous input ``x`` on row ``r`` of the transition levels ``levels``.
+
+    ``levels[r]`` is non-decreasing; code ``k`` covers ``levels[r, k−1] ≤ x < levels[r, k]``, so the
+    code is ``#{levels[r] ≤ x}``. On a level exactly (``lo = #{< x}`` < ``hi = #{≤ x}``) it is
+    ``lo`` if ``lo`` is even, else ``hi``: half to even, so the ideal table ``k + 0.5`` gives
+    ``numpy.rint`` bit for bit. ``lut[r, c]`` is ``#{levels[r] ≤ lut_base + c}``: the search starts
+    there and walks over the levels in ``[floor(x), x]`` (about one).
+    """
+    n = levels.shape[1]
+    if x < levels[r, 0]:
+        return 0
+    if x > levels[r, n - 1]:
+        return n
+    hi = lut[r, int(math.floor(x)) - lut_base]
+    while hi < n and levels[r, hi] <= x:
+        hi += 1
+    lo = hi
+    while lo > 0 and levels[r, lo - 1] == x:
+        lo -= 1
+    if lo % 2 == 0:
+        return lo
+    return hi
+
+
+@NJIT
+def convert(
+    volts: float, i: int, v_min: float, lsb: float, gain: float, offset: float, top: float,
+    conv, cgen,
+) -> int:  # fmt: skip
+    """One conversion by converter ``i`` (its index in the per-pixel arrays of ``conv``).
+
+    ``conv = (built, pixel_gain, pixel_offset, table_of_pixel, noise_lsb, levels, lut,
+    lut_base)``. Not ``built``: :func:`adc_code`, today's ideal arithmetic, nothing drawn. Built:
+    the continuous code ``x = (v − v_min)/lsb·gain + offset``, then the converter's own
+    ``x·pixel_gain[i] + pixel_offset[i]``, then (if ``noise_lsb > 0``) one comparator draw
+    ``noise_lsb·z`` from ``cgen``; then :func:`table_code` on the converter's ramp
+    ``table_of_pixel[i]``, or round and clip as :func:`adc_code` when there is no table
+    (``levels`` with 0 columns).
+    """
+    if not conv[0]:
+        return adc_code(volts, v_min, lsb, gain, offset, top)
+    x = (volts - v_min) / lsb * gain + offset
+    x = x * conv[1][i] + conv[2][i]
+    if conv[4] > 0.0:
+        x = x + conv[4] * cgen.standard_normal()
+    levels = conv[5]
+    if levels.shape[1] == 0:
+        x = np.rint(x)
+        if x < 0.0:
+            return 0
+        if x > top:
+            return int(top)
+        return int(x)
+    return table_code(x, levels, conv[6], conv[7], conv[3][i])
+
+
+@NJIT
+def convert_fill(
+    volts, n_pix, v_min, lsb, gain, offset, top, conv, cgen, out,
+):  # fmt: skip
+    """``out[j] = convert(volts[j], j % n_pix, ...)`` in order (C order of ``(..., n_pix)``)."""
+    for j in range(volts.size):
+        out[j] = convert(volts[j], j % n_pix, v_min, lsb, gain, offset, top, conv, cgen)
+
+
+@NJIT
+def table_moments(mu, sd, rows, levels, lut, lut_base, window, out_mean, out_var):
+    """Mean and variance of the code for ``X ~ N(mu[i], sd[i]²)`` on the levels ``levels[rows[i]]``.
+
+    ``P(code = k) = S(levels[k−1]) − S(levels[k])`` with ``S(t) = P(X ≥ t)``, summed over the
+    codes whose levels lie within ``± window·sd`` (beyond: ``S = 1`` below, ``0`` above), centred
+    on the code of ``mu`` for precision. ``sd = 0``: the code of ``mu`` (:func:`table_code`).
+    """
+    n = levels.shape[1]
+    for i in range(mu.size):
+        r, m, s = rows[i], mu[i], sd[i]
+        centre = table_code(m, levels, lut, lut_base, r)
+        if s == 0.0:
+            out_mean[i], out_var[i] = float(centre), 0.0
+            continue
+        j0 = np.searchsorted(levels[r], m - window * s, side="left")
+        j1 = np.searchsorted(levels[r], m + window * s, side="right")
+        s_prev, m1, m2 = 1.0, 0.0, 0.0
+        scale = 1.0 / (s * math.sqrt(2.0))
+        for k in range(j0, j1 + 1):
+            s_next = 0.5 * math.erfc((levels[r, k] - m) * scale) if k < j1 and k < n else 0.0
+            p = s_prev - s_next
+            d = float(k - centre)
+            m1 += p * d
+            m2 += p * d * d
+            s_prev = s_next
+        out_mean[i] = centre + m1
+        out_var[i] = max(m2 - m1 * m1, 0.0)
+
+
+@NJIT
 def chain_chunk(
     shot_state, gen, photons, gain_map, dark_e, qe, full_well, ktc, read_noise, true_cds,
     read_reset, shot_noise, gauss_min_mean, pedestal, cg_V, v_min, lsb, adc_gain, offset, top,
-    reset_out, signal_out,
+    conv, cgen, reset_out, signal_out,
 ):  # fmt: skip
     """One frame of one chunk of pixels: charge, kTC, read noise, ADC. Codes into the outputs.
 
@@ -192,7 +289,10 @@ def chain_chunk(
     ``ktc > 0``, ``read_reset`` and not ``true_cds``), the M reset samples' read noise (if
     ``read_reset``), the M signal samples' read noise. ``reset_out`` and ``signal_out`` are
     ``(M, n)`` (``reset_out`` unused unless ``read_reset``). Electrons and volts are formed as in
-    ``sample_frame`` and ``to_volts``.
+    ``sample_frame`` and ``to_volts``; each sample is converted by :func:`convert` with the
+    converter ``conv`` (its per-pixel arrays sliced to this chunk), whose comparator noise, if
+    any, is drawn from its own stream ``cgen``, one draw per conversion in conversion order (the
+    M reset samples, then the M signal samples, pixel after pixel).
     """
     state = shot_state.copy()  # a private copy: threads never write neighbouring cache lines
     n_samples = signal_out.shape[0]
@@ -210,17 +310,21 @@ def chain_chunk(
                 k_reset = ktc * gen.standard_normal()
             for m in range(n_samples):
                 e = k_reset + read_noise * gen.standard_normal()
-                reset_out[m, i] = adc_code(pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top)
+                reset_out[m, i] = convert(
+                    pedestal + e * cg_V, i, v_min, lsb, adc_gain, offset, top, conv, cgen
+                )
         for m in range(n_samples):
             e = (collected + k_signal) + read_noise * gen.standard_normal()
-            signal_out[m, i] = adc_code(pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top)
+            signal_out[m, i] = convert(
+                pedestal + e * cg_V, i, v_min, lsb, adc_gain, offset, top, conv, cgen
+            )
     shot_state[:] = state
 
 
 @NJIT
 def frame_codes(
     gen, mean_e, counted_pixels, counted_e, full_well, ktc, read_noise, true_cds, pedestal, cg_V,
-    v_min, lsb, adc_gain, offset, top, gauss_min_mean, codes_out,
+    v_min, lsb, adc_gain, offset, top, gauss_min_mean, conv, cgen, codes_out,
 ):  # fmt: skip
     """Frames of the ``binned`` level, one after another, from the NumPy ``Generator`` ``gen``.
 
@@ -231,8 +335,10 @@ def frame_codes(
     charge counted another way); if ``ktc > 0`` the signal kTC draw of every pixel, then (without
     ``true_cds``) the reset kTC draw of every pixel; the ``(M, n)`` reset samples' read noise, the
     ``(M, n)`` signal samples' read noise. Each sample is formed and converted as in
-    ``read_out``, ``to_volts`` and ``adc_convert``; ``codes_out`` is ``(n_frames, 2M, n)``, the M
-    reset codes first.
+    ``read_out``, ``to_volts`` and ``adc_convert`` (the ideal ``conv``) or by the converter as
+    built (:func:`convert`), whose comparator draws come from ``cgen`` in the order of the
+    conversions (frame, then reset then signal samples, sample-major, pixel-minor);
+    ``codes_out`` is ``(n_frames, 2M, n)``, the M reset codes first.
     """
     n_frames, n = mean_e.shape
     m = codes_out.shape[1] // 2
@@ -253,9 +359,13 @@ def frame_codes(
             for i in range(n):
                 e = k_reset[i] + read_noise * gen.standard_normal()
                 volts = pedestal + e * cg_V
-                codes_out[f, j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
+                codes_out[f, j, i] = convert(
+                    volts, i, v_min, lsb, adc_gain, offset, top, conv, cgen
+                )
         for j in range(m):
             for i in range(n):
                 e = (collected[i] + k_signal[i]) + read_noise * gen.standard_normal()
                 volts = pedestal + e * cg_V
-                codes_out[f, m + j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
+                codes_out[f, m + j, i] = convert(
+                    volts, i, v_min, lsb, adc_gain, offset, top, conv, cgen
+                )
