@@ -177,85 +177,139 @@ def adc_code(volts: float, v_min: float, lsb: float, gain: float, offset: float,
     return int(x)
 
 
-@NJIT
-def table_code(x: float, levels: np.ndarray, lut: np.ndarray, lut_base: int, r: int) -> int:
-    """Code of the continuous input ``x`` on row ``r`` of the transition levels ``levels``.
+#: Pixels whose samples :func:`chain_chunk` converts together as built: the voltages of a block
+#: (``2M × 256 × 8 B``, 16 kB at M = 4) stay in the L1 cache; a whole chunk's went to memory and
+#: back (≈ 15 ns a conversion more, measured).
+CONVERT_BLOCK: int = 256
 
-    ``levels[r]`` is non-decreasing; code ``k`` covers ``levels[r, k−1] ≤ x < levels[r, k]``, so the
-    code is ``#{levels[r] ≤ x}``. On a level exactly (``lo = #{< x}`` < ``hi = #{≤ x}``) it is
-    ``lo`` if ``lo`` is even, else ``hi``: half to even, so the ideal table ``k + 0.5`` gives
-    ``numpy.rint`` bit for bit. ``lut[r, c]`` is ``#{levels[r] ≤ lut_base + c}``: the search starts
-    there and walks over the levels in ``[floor(x), x]`` (about one).
+#: Cells of the search LUT per LSB: a cell holds at most one transition unless a code is
+#: narrower than 1/CELLS_PER_LSB LSB (then the search walks the levels). A power of two.
+CELLS_PER_LSB: float = 2.0
+
+
+@NJIT
+def table_code(x: float, levels: np.ndarray, lut: np.ndarray, base: int, r: int) -> int:
+    """Code of the continuous input ``x`` (not NaN) on ramp ``r`` of the levels ``levels``.
+
+    ``levels[:, r]`` (level-major: converters of neighbouring ramps at similar codes read
+    neighbouring memory) holds the ``n`` non-decreasing levels of ramp ``r`` and a last row of
+    +inf. Code ``k`` covers ``levels[k−1, r] ≤ x < levels[k, r]``: the code is
+    ``#{levels ≤ x}``. On a level exactly (``lo = #{< x}`` < ``hi = #{≤ x}``) it is ``lo`` if
+    ``lo`` is even, else ``hi``: half to even, so the ideal table ``k + 0.5`` gives
+    ``numpy.rint`` bit for bit.
+
+    The LUT ``lut[c, r] = (level, below)``: cell ``c`` is ``[(base + c)/CELLS_PER_LSB,
+    (base + c + 1)/CELLS_PER_LSB)``, ``below`` counts the levels under it and ``level`` is its
+    one level (+inf if none, NaN if several: then the levels are walked). The first and last
+    cells lie beyond every level; ``x`` is clamped into them (branch-free) and scaled by a power
+    of two and floored, which is exact. The kernels' loop (:func:`_table_rows`) writes this out.
     """
-    n = levels.shape[1]
-    if x < levels[r, 0]:
-        return 0
-    if x > levels[r, n - 1]:
-        return n
-    hi = lut[r, int(math.floor(x)) - lut_base]
-    while hi < n and levels[r, hi] <= x:
+    xc = min(max(x, base / CELLS_PER_LSB), (base + lut.shape[0] - 1) / CELLS_PER_LSB)
+    c = int(math.floor(xc * CELLS_PER_LSB)) - base
+    t = lut[c, r, 0]
+    k = np.int64(lut[c, r, 1])
+    if t == t:  # at most one level in the cell: one comparison, no search
+        return k + int(xc > t) + int(xc == t) * (k & 1)
+    return _walk(xc, levels, k, r)
+
+
+@NJIT
+def _walk(x: float, levels: np.ndarray, k: int, r: int) -> int:
+    """:func:`table_code` in a cell of several levels: walk from the ``k`` below it. Not
+    inlined: the loops, rarely run, would slow the one-comparison path threefold (measured)."""
+    hi = k
+    while levels[hi, r] <= x:
         hi += 1
-    lo = hi
-    while lo > 0 and levels[r, lo - 1] == x:
-        lo -= 1
-    if lo % 2 == 0:
-        return lo
+    if levels[hi - 1, r] == x:  # on a level: half to even
+        lo = hi - 1
+        while lo > 0 and levels[lo - 1, r] == x:
+            lo -= 1
+        if lo % 2 == 0:
+            return lo
     return hi
 
 
 @NJIT
-def convert(
-    volts: float, i: int, v_min: float, lsb: float, gain: float, offset: float, top: float,
-    conv, cgen,
-) -> int:  # fmt: skip
-    """One conversion by converter ``i`` (its index in the per-pixel arrays of ``conv``).
+def convert_rows(volts, out, v_min, lsb, gain, offset, top, conv, cgen):
+    """Convert ``volts`` ``(R, n)`` into ``out`` ``(R, n)`` by the converters as built, converter
+    ``i`` for column ``i``; comparator draws from ``cgen`` in C order (row-major).
 
-    ``conv = (built, pixel_gain, pixel_offset, table_of_pixel, noise_lsb, levels, lut,
-    lut_base)``. Not ``built``: :func:`adc_code`, today's ideal arithmetic, nothing drawn. Built:
-    the continuous code ``x = (v − v_min)/lsb·gain + offset``, then the converter's own
-    ``x·pixel_gain[i] + pixel_offset[i]``, then (if ``noise_lsb > 0``) one comparator draw
-    ``noise_lsb·z`` from ``cgen``; then :func:`table_code` on the converter's ramp
-    ``table_of_pixel[i]``, or round and clip as :func:`adc_code` when there is no table
-    (``levels`` with 0 columns).
+    ``conv = (built, pixel_gain, pixel_offset, table_of_pixel, noise_lsb, levels, lut, base)``
+    (the last three as in :func:`table_code`; ``built`` is True here: the ideal converter is
+    :func:`adc_code`, inline in the kernels). Per conversion: the continuous code
+    ``x = (v − v_min)/lsb·gain + offset`` (today's arithmetic), then the converter's own
+    ``x·pixel_gain[i] + pixel_offset[i]``, then (if ``noise_lsb > 0``) ``+ noise_lsb·z``; then
+    :func:`table_code` on ramp ``table_of_pixel[i]``, or round and clip as :func:`adc_code` when
+    there is no table (``levels`` with 0 rows).
+
+    A kernel of its own, called once per block of conversions: the lookup inlined at every
+    sample of the pixel loops, with the tables passed down, cost 30–50 ns a conversion (numba
+    reference-counts the arrays at each inlined call; measured), against a few ns here. The
+    comparator draws are made first, into an array, for the same reason.
     """
-    if not conv[0]:
-        return adc_code(volts, v_min, lsb, gain, offset, top)
-    x = (volts - v_min) / lsb * gain + offset
-    x = x * conv[1][i] + conv[2][i]
-    if conv[4] > 0.0:
-        x = x + conv[4] * cgen.standard_normal()
-    levels = conv[5]
-    if levels.shape[1] == 0:
-        x = np.rint(x)
-        if x < 0.0:
-            return 0
-        if x > top:
-            return int(top)
-        return int(x)
-    return table_code(x, levels, conv[6], conv[7], conv[3][i])
+    _, c_gain, c_offset, rows, noise, levels, lut, base = conv
+    dither = np.empty(volts.shape if noise > 0.0 else (0, 0))
+    for m in range(dither.shape[0]):
+        for i in range(dither.shape[1]):
+            dither[m, i] = noise * cgen.standard_normal()
+    args = (volts, out, v_min, lsb, gain, offset, c_gain, c_offset, dither)
+    if levels.shape[0] > 0:
+        _table_rows(*args, rows, levels, lut, base)
+    else:
+        _round_rows(*args, top)
 
 
 @NJIT
-def convert_fill(
-    volts, n_pix, v_min, lsb, gain, offset, top, conv, cgen, out,
-):  # fmt: skip
-    """``out[j] = convert(volts[j], j % n_pix, ...)`` in order (C order of ``(..., n_pix)``)."""
-    for j in range(volts.size):
-        out[j] = convert(volts[j], j % n_pix, v_min, lsb, gain, offset, top, conv, cgen)
+def _round_rows(volts, out, v_min, lsb, gain, offset, c_gain, c_offset, dither, top):
+    """:func:`convert_rows` without a table: mismatch and dither, then round and clip."""
+    noisy = dither.shape[0] > 0
+    for m in range(volts.shape[0]):
+        for i in range(volts.shape[1]):
+            x = (volts[m, i] - v_min) / lsb * gain + offset
+            x = x * c_gain[i] + c_offset[i]
+            if noisy:
+                x = x + dither[m, i]
+            out[m, i] = adc_code(x, 0.0, 1.0, 1.0, 0.0, top)
 
 
 @NJIT
-def table_moments(mu, sd, rows, levels, lut, lut_base, window, out_mean, out_var):
+def _table_rows(volts, out, v_min, lsb, gain, offset, c_gain, c_offset, dither, rows, levels,
+                lut, base):  # fmt: skip
+    """:func:`convert_rows` with a table: :func:`table_code` written out (its arrays passed to an
+    inlined call at every conversion, or a generator call anywhere in this loop, cost 10–25 ns
+    a conversion more; measured)."""
+    noisy = dither.shape[0] > 0
+    x_lo, x_hi = base / CELLS_PER_LSB, (base + lut.shape[0] - 1) / CELLS_PER_LSB
+    for m in range(volts.shape[0]):
+        for i in range(volts.shape[1]):
+            x = (volts[m, i] - v_min) / lsb * gain + offset
+            x = x * c_gain[i] + c_offset[i]
+            if noisy:
+                x = x + dither[m, i]
+            r = rows[i]
+            xc = min(max(x, x_lo), x_hi)
+            c = int(math.floor(xc * CELLS_PER_LSB)) - base
+            t = lut[c, r, 0]
+            k = np.int64(lut[c, r, 1])
+            if t == t:
+                out[m, i] = k + int(xc > t) + int(xc == t) * (k & 1)
+            else:
+                out[m, i] = _walk(xc, levels, k, r)
+
+
+@NJIT
+def table_moments(mu, sd, rows, levels, lut, window, out_mean, out_var):
     """Mean and variance of the code for ``X ~ N(mu[i], sd[i]²)`` on the levels ``levels[rows[i]]``.
 
     ``P(code = k) = S(levels[k−1]) − S(levels[k])`` with ``S(t) = P(X ≥ t)``, summed over the
     codes whose levels lie within ``± window·sd`` (beyond: ``S = 1`` below, ``0`` above), centred
-    on the code of ``mu`` for precision. ``sd = 0``: the code of ``mu`` (:func:`table_code`).
+    on the code of ``mu`` for precision. ``sd = 0``: the code of ``mu`` (:func:`table_code` with
+    ``lut = (levels_t, lut, base)``, the level-major padded twin of ``levels`` and its LUT).
     """
     n = levels.shape[1]
     for i in range(mu.size):
         r, m, s = rows[i], mu[i], sd[i]
-        centre = table_code(m, levels, lut, lut_base, r)
+        centre = table_code(m, lut[0], lut[1], lut[2], r)
         if s == 0.0:
             out_mean[i], out_var[i] = float(centre), 0.0
             continue
@@ -289,13 +343,19 @@ def chain_chunk(
     ``ktc > 0``, ``read_reset`` and not ``true_cds``), the M reset samples' read noise (if
     ``read_reset``), the M signal samples' read noise. ``reset_out`` and ``signal_out`` are
     ``(M, n)`` (``reset_out`` unused unless ``read_reset``). Electrons and volts are formed as in
-    ``sample_frame`` and ``to_volts``; each sample is converted by :func:`convert` with the
-    converter ``conv`` (its per-pixel arrays sliced to this chunk), whose comparator noise, if
-    any, is drawn from its own stream ``cgen``, one draw per conversion in conversion order (the
-    M reset samples, then the M signal samples, pixel after pixel).
+    ``sample_frame`` and ``to_volts``. The ideal converter (``conv[0]`` False) converts each
+    sample as it is formed (:func:`adc_code`, today's arithmetic). As built, the sample voltages
+    of each block of :data:`CONVERT_BLOCK` pixels are kept and converted after the block by
+    :func:`convert_rows` (the per-pixel arrays sliced to the block): its reset samples
+    ``(M, block)``, then its signal samples, each in C order, the comparator noise (if any) drawn
+    from its own stream ``cgen`` in that order.
     """
     state = shot_state.copy()  # a private copy: threads never write neighbouring cache lines
     n_samples = signal_out.shape[0]
+    built = conv[0]
+    block = CONVERT_BLOCK if built else 0
+    v_reset = np.empty((n_samples if read_reset else 0, block))
+    v_signal = np.empty((n_samples, block))
     for i in range(photons.size):
         lam = qe * gain_map[i] * photons[i] + dark_e[i]
         if shot_noise == SHOT_GAUSSIAN:
@@ -310,14 +370,23 @@ def chain_chunk(
                 k_reset = ktc * gen.standard_normal()
             for m in range(n_samples):
                 e = k_reset + read_noise * gen.standard_normal()
-                reset_out[m, i] = convert(
-                    pedestal + e * cg_V, i, v_min, lsb, adc_gain, offset, top, conv, cgen
-                )
+                if built:
+                    v_reset[m, i % block] = pedestal + e * cg_V
+                else:
+                    reset_out[m, i] = adc_code(
+                        pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top)
         for m in range(n_samples):
             e = (collected + k_signal) + read_noise * gen.standard_normal()
-            signal_out[m, i] = convert(
-                pedestal + e * cg_V, i, v_min, lsb, adc_gain, offset, top, conv, cgen
-            )
+            if built:
+                v_signal[m, i % block] = pedestal + e * cg_V
+            else:
+                signal_out[m, i] = adc_code(pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top)
+        if built and (i % block == block - 1 or i == photons.size - 1):
+            lo, hi = i - i % block, i + 1  # a block's samples: reset ones, then signal ones
+            part = (True, conv[1][lo:hi], conv[2][lo:hi], conv[3][lo:hi], *conv[4:])
+            consts = (v_min, lsb, adc_gain, offset, top)
+            convert_rows(v_reset[:, : hi - lo], reset_out[:, lo:hi], *consts, part, cgen)
+            convert_rows(v_signal[:, : hi - lo], signal_out[:, lo:hi], *consts, part, cgen)
     shot_state[:] = state
 
 
@@ -335,13 +404,16 @@ def frame_codes(
     charge counted another way); if ``ktc > 0`` the signal kTC draw of every pixel, then (without
     ``true_cds``) the reset kTC draw of every pixel; the ``(M, n)`` reset samples' read noise, the
     ``(M, n)`` signal samples' read noise. Each sample is formed and converted as in
-    ``read_out``, ``to_volts`` and ``adc_convert`` (the ideal ``conv``) or by the converter as
-    built (:func:`convert`), whose comparator draws come from ``cgen`` in the order of the
-    conversions (frame, then reset then signal samples, sample-major, pixel-minor);
+    ``read_out``, ``to_volts`` and ``adc_convert`` (the ideal ``conv``), or as built by
+    :func:`convert_rows`, one sample row of ``n`` pixels at a time, whose comparator draws come
+    from ``cgen`` in the order of the conversions (frame, reset then signal samples,
+    sample-major, pixel-minor);
     ``codes_out`` is ``(n_frames, 2M, n)``, the M reset codes first.
     """
     n_frames, n = mean_e.shape
     m = codes_out.shape[1] // 2
+    built = conv[0]
+    row = np.empty((1, n if built else 0))
     collected = np.empty(n)
     k_signal = np.zeros(n)
     k_reset = np.zeros(n)
@@ -359,13 +431,21 @@ def frame_codes(
             for i in range(n):
                 e = k_reset[i] + read_noise * gen.standard_normal()
                 volts = pedestal + e * cg_V
-                codes_out[f, j, i] = convert(
-                    volts, i, v_min, lsb, adc_gain, offset, top, conv, cgen
-                )
+                if built:
+                    row[0, i] = volts
+                else:
+                    codes_out[f, j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
+            if built:
+                convert_rows(row, codes_out[f, j : j + 1], v_min, lsb, adc_gain, offset, top,
+                             conv, cgen)
         for j in range(m):
             for i in range(n):
                 e = (collected[i] + k_signal[i]) + read_noise * gen.standard_normal()
                 volts = pedestal + e * cg_V
-                codes_out[f, m + j, i] = convert(
-                    volts, i, v_min, lsb, adc_gain, offset, top, conv, cgen
-                )
+                if built:
+                    row[0, i] = volts
+                else:
+                    codes_out[f, m + j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
+            if built:
+                convert_rows(row, codes_out[f, m + j : m + j + 1], v_min, lsb, adc_gain, offset,
+                             top, conv, cgen)

@@ -43,13 +43,21 @@ from numpy.typing import ArrayLike, NDArray
 
 from chiptwin.pixel import _kernels
 from chiptwin.pixel._checks import check_scalar
-from chiptwin.pixel.adc import _WINDOW_SIGMA, _check_adc, _check_errors, _moments
+from chiptwin.pixel.adc import (
+    _WINDOW_SIGMA,
+    _check_adc,
+    _check_errors,
+    _moments,
+    adc_convert,
+)
 
 RAMPS: tuple[str, ...] = ("chip", "column", "pixel")
 INL_SHAPES: tuple[str, ...] = ("quadratic", "cubic", "table")
 
-#: Largest memory the transition tables (8 B per level) and their search LUTs (4 B) may take.
-#: 256 × 256 converters on their own ramps with 13 bits would need 6.4 GB. Unit: byte.
+#: Largest memory the transition tables may take: 48 B per level (the levels twice, row-major
+#: for the expected level and level-major for the kernels, 8 B each, and the search LUT, 16 B a
+#: cell, two cells per LSB). 256 × 256 converters on their own ramps with 13 bits would need
+#: 26 GB. Unit: byte.
 MAX_TABLE_BYTES: int = 256 * 2**20
 
 #: Peak of ``u(1−u)(1−2u)`` on [0, 1] (at ``u = 1/2 − 1/(2√3)``): ``1/(6√3)``.
@@ -159,8 +167,8 @@ def load_transition_table(path: str | Path, bits: int) -> NDArray[np.float64]:
 
 _EMPTY_F = np.zeros(0)
 _EMPTY_I = np.zeros(0, np.int64)
-_NO_LEVELS = np.zeros((1, 0))
-_NO_LUT = np.zeros((1, 1), np.int32)
+_NO_LEVELS = np.zeros((0, 1))
+_NO_LUT = np.zeros((1, 1, 2))
 
 #: Passed as the comparator stream when nothing is drawn from it (no comparator noise).
 _NO_DRAWS = np.random.Generator(np.random.SFC64(0))
@@ -228,8 +236,11 @@ class Converter:
                     raise ValueError(f"table_of_pixel must hold {n} rows of levels in "
                                      f"[0, {levels.shape[0] - 1}]")
             lut, base = _search_lut(levels)
+            object.__setattr__(self, "levels", levels)
+            levels = _level_major(levels)
         noise = float(self.comparator_noise_lsb)
-        object.__setattr__(self, "_conv", (True, gain, offset, rows, noise, levels, lut, base))
+        object.__setattr__(self, "_conv",
+                           (True, gain, offset, rows, noise, levels, lut, base))
 
     @staticmethod
     def _per_pixel(name: str, values: ArrayLike | None, n: int, fill: float
@@ -273,7 +284,7 @@ class Converter:
         c = self._conv  # type: ignore[attr-defined]
         if not c[0]:
             return c
-        return (True, c[1][lo:hi], c[2][lo:hi], c[3][lo:hi], c[4], c[5], c[6], c[7])
+        return (True, c[1][lo:hi], c[2][lo:hi], c[3][lo:hi], *c[4:])
 
     def check_pixels(self, n_pixels: int, name: str = "converter") -> None:
         """Refuse a converter that is not ideal and describes another number of pixels."""
@@ -301,14 +312,15 @@ class Converter:
         v = np.ascontiguousarray(volts, dtype=np.float64)
         if np.isnan(v).any():
             raise ValueError("volts contains NaN: must be real voltages (±inf clip)")
-        n_pix = 1
-        if not self.ideal:
-            n_pix = int(self.n_pixels)  # type: ignore[arg-type]
-            if v.shape[v.ndim - len(self.shape):] != self.shape:  # type: ignore[arg-type]
-                raise ValueError(f"volts has shape {v.shape}: must end with {self.shape}")
-        out = np.empty(v.size, np.int64)
-        _kernels.convert_fill(v.reshape(-1), n_pix, *self.consts(), self.kernel_conv(),
-                              self.comparator_stream(rng, "rng"), out)
+        if self.ideal:
+            return adc_convert(v, self.bits, self.v_min_V, self.v_max_V, self.offset_lsb,
+                               self.gain_error)
+        n_pix = int(self.n_pixels)  # type: ignore[arg-type]
+        if v.shape[v.ndim - len(self.shape):] != self.shape:  # type: ignore[arg-type]
+            raise ValueError(f"volts has shape {v.shape}: must end with {self.shape}")
+        out = np.empty((v.size // n_pix, n_pix), np.int64)
+        _kernels.convert_rows(v.reshape(-1, n_pix), out, *self.consts(), self.kernel_conv(),
+                              self.comparator_stream(rng, "rng"))
         return out.reshape(v.shape)
 
     def expected(self, mean_V: ArrayLike, var_V: ArrayLike
@@ -324,7 +336,7 @@ class Converter:
         mean_a, var_a = np.broadcast_arrays(np.asarray(mean_V, float), np.asarray(var_V, float))
         if not (np.isfinite(mean_a).all() and np.isfinite(var_a).all() and (var_a >= 0).all()):
             raise ValueError("mean_V and var_V must be finite and var_V ≥ 0")
-        _, g, o, rows, noise, levels, lut, base = self._conv  # type: ignore[attr-defined]
+        _, g, o, rows, noise, *lut = self._conv  # type: ignore[attr-defined]
         v_min, lsb, gain, offset, top = self.consts()
         mu = (mean_a - v_min) / lsb * gain + offset
         sd = np.sqrt(var_a) * (gain / lsb)
@@ -338,20 +350,36 @@ class Converter:
         else:
             mean, var = np.empty_like(mu), np.empty_like(mu)
             rows = np.ascontiguousarray(rows, np.int64).ravel()
-            _kernels.table_moments(mu, sd, rows, levels, lut, base, _WINDOW_SIGMA, mean, var)
+            _kernels.table_moments(mu, sd, rows, self.levels, tuple(lut), _WINDOW_SIGMA, mean,
+                                   var)
         shape = np.broadcast_shapes(mean_a.shape, () if self.ideal else self.shape)
         return mean.reshape(shape), var.reshape(shape)
 
 
-def _search_lut(levels: NDArray[np.float64]) -> tuple[NDArray[np.int32], int]:
-    """``lut[r, c] = #{levels[r] ≤ base + c}`` for every integer from ``floor`` of the lowest
-    level to ``floor`` of the highest: where :func:`~chiptwin.pixel._kernels.table_code` starts."""
-    base = int(math.floor(levels[:, 0].min()))
-    grid = np.arange(base, int(math.floor(levels[:, -1].max())) + 1, dtype=np.float64)
-    lut = np.empty((levels.shape[0], grid.size), np.int32)
+def _search_lut(levels: NDArray[np.float64]) -> tuple[NDArray[np.float64], int]:
+    """The LUT of :func:`~chiptwin.pixel._kernels.table_code`, ``(n_cells, n_tables, 2)``: for
+    each cell of ``1/CELLS_PER_LSB`` LSB, from one below the lowest level's to one above the
+    highest's, its one level (+inf if none, NaN if several) and the count of levels below it."""
+    per = _kernels.CELLS_PER_LSB
+    base = int(math.floor(levels[:, 0].min() * per)) - 1
+    edges = np.arange(base, int(math.floor(levels[:, -1].max() * per)) + 3) / per
+    lut = np.empty((edges.size - 1, levels.shape[0], 2))
     for r in range(levels.shape[0]):
-        lut[r] = np.searchsorted(levels[r], grid, side="right")
+        k = np.searchsorted(levels[r], edges, side="left")
+        count = np.diff(k)
+        first = levels[r][np.minimum(k[:-1], levels.shape[1] - 1)]
+        lut[:, r, 0] = np.where(count == 0, np.inf, np.where(count == 1, first, np.nan))
+        lut[:, r, 1] = k[:-1]
     return lut, base
+
+
+def _level_major(levels: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``(n + 1, n_tables)``: the levels level-major, with a last row of +inf (the kernels' search
+    then needs no bound check)."""
+    out = np.empty((levels.shape[1] + 1, levels.shape[0]))
+    out[:-1] = levels.T
+    out[-1] = np.inf
+    return out
 
 
 def _ramp_index(ramp: str, shape: tuple[int, ...]) -> tuple[NDArray[np.int64], int]:
@@ -366,14 +394,15 @@ def _ramp_index(ramp: str, shape: tuple[int, ...]) -> tuple[NDArray[np.int64], i
 
 
 def _check_memory(n_tables: int, bits: int, spec: AsBuilt) -> None:
-    need = n_tables * (2**bits - 1) * 12
+    need = n_tables * (2**bits - 1) * 48
     if need > MAX_TABLE_BYTES:
         raise ValueError(
             f"ramp = {spec.ramp!r} with dnl_rms_lsb = {spec.dnl_rms_lsb!r}: {n_tables} transition "
             f"tables of {2**bits - 1} levels need {need / 1e9:.3g} GB, above the "
-            f"{MAX_TABLE_BYTES / 2**20:.0f} MiB bound (MAX_TABLE_BYTES). Share the ramp "
-            "(ramp = 'column' or 'chip', as a single-slope array shares its ramp and counter, "
-            "the DNL's source) or set dnl_rms_lsb = 0")
+            f"{MAX_TABLE_BYTES / 2**20:.0f} MiB bound (MAX_TABLE_BYTES). Share each ramp among "
+            "more converters (ramp = 'chip', or 'column' on fewer columns: a single-slope array "
+            "shares its ramp and counter, the DNL's source), use fewer bits, or set "
+            "dnl_rms_lsb = 0")
 
 
 def _with_dnl(base: NDArray[np.float64], dnl: float, n_tables: int, rng: np.random.Generator

@@ -307,7 +307,7 @@ def test_sensor_chain_as_built_does_not_depend_on_the_thread_count():
 def test_binned_codes_as_built_does_not_depend_on_the_thread_count():
     n = 2 * 2048 + 100
     lam = np.random.default_rng(23).uniform(0, 2e4, (2, n))
-    conv = _built((n,))
+    conv = _built((2, n // 2), bits=10)
     runs = []
     for threads in (1, 2, 3):
         codes = binned_codes(chunk_streams(np.random.default_rng(24), n), lam, converter=conv,
