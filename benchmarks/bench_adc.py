@@ -32,8 +32,9 @@ import numpy as np
 from chiptwin.pixel import AsBuilt, binned_codes, build_converter, chunk_streams, sensor_chain
 
 SIDE, BITS, M = 256, 13, 4
-SENSOR = dict(full_well_e=2e4, ktc_e=40.0, read_noise_e=100.0, conversion_gain_uV_per_e=40.0,
-              pedestal_V=0.05)
+SENSOR = dict(
+    full_well_e=2e4, ktc_e=40.0, read_noise_e=100.0, conversion_gain_uV_per_e=40.0, pedestal_V=0.05
+)
 _CHIP = dict(inl_max_lsb=2.0, dnl_rms_lsb=0.2, offset_sigma_lsb=0.5, gain_sigma=0.005)
 SPECS = {
     "ideal": None,
@@ -46,8 +47,14 @@ SPECS = {
 def _adc(name: str) -> dict:
     if SPECS[name] is None:
         return dict(bits=BITS, v_min_V=0.0, v_max_V=1.0)
-    conv = build_converter(np.random.default_rng(1), (SIDE, SIDE), bits=BITS, v_min_V=0.0,
-                           v_max_V=1.0, as_built=SPECS[name])
+    conv = build_converter(
+        np.random.default_rng(1),
+        (SIDE, SIDE),
+        bits=BITS,
+        v_min_V=0.0,
+        v_max_V=1.0,
+        as_built=SPECS[name],
+    )
     return dict(converter=conv)
 
 
@@ -56,9 +63,18 @@ def chain_run(adc: dict, photons: np.ndarray, n_frames: int) -> Callable[[], Non
     out = (np.empty(shape, np.int64), np.empty(shape, np.int64))
 
     def run() -> None:
-        for _ in sensor_chain(np.random.default_rng(2), photons, n_frames=n_frames, qe=0.5,
-                              dark_e=50.0, n_samples=M, read_reset=True, out=out, **SENSOR,
-                              **adc):
+        for _ in sensor_chain(
+            np.random.default_rng(2),
+            photons,
+            n_frames=n_frames,
+            qe=0.5,
+            dark_e=50.0,
+            n_samples=M,
+            read_reset=True,
+            out=out,
+            **SENSOR,
+            **adc,
+        ):
             pass
 
     return run
@@ -70,8 +86,15 @@ def binned_run(adc: dict, lam: np.ndarray) -> Callable[[], None]:
         extra = {}
         if "converter" in adc and adc["converter"].comparator_noise_lsb > 0:
             extra["comparator_rng"] = chunk_streams(np.random.default_rng(4), n)
-        binned_codes(chunk_streams(np.random.default_rng(3), n), lam, n_samples=M,
-                     true_cds=True, **SENSOR, **adc, **extra)
+        binned_codes(
+            chunk_streams(np.random.default_rng(3), n),
+            lam,
+            n_samples=M,
+            true_cds=True,
+            **SENSOR,
+            **adc,
+            **extra,
+        )
 
     return run
 
@@ -100,11 +123,15 @@ def main(argv: list[str] | None = None) -> int:
     photons = rng.uniform(500.0, 20000.0, (SIDE, SIDE))
     lam = 0.5 * photons.reshape(1, -1).repeat(frames, axis=0) + 50.0
     adcs = {name: _adc(name) for name in SPECS}
-    for label, make in (("sensor_chain", lambda a: chain_run(a, photons, frames)),
-                        ("binned_codes", lambda a: binned_run(a, lam))):
+    for label, make in (
+        ("sensor_chain", lambda a: chain_run(a, photons, frames)),
+        ("binned_codes", lambda a: binned_run(a, lam)),
+    ):
         medians = time_rounds({name: make(adc) for name, adc in adcs.items()}, rounds)
-        print(f"{label}: {SIDE}x{SIDE} px, {BITS} bits, {frames} frames x {2 * M} conversions, "
-              f"median of {rounds}")
+        print(
+            f"{label}: {SIDE}x{SIDE} px, {BITS} bits, {frames} frames x {2 * M} conversions, "
+            f"median of {rounds}"
+        )
         for name, t in medians.items():
             print(f"  {name:13s} {t * 1e3:8.1f} ms   ratio {t / medians['ideal']:.3f}")
     return 0

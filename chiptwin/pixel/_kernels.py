@@ -374,7 +374,8 @@ def chain_chunk(
                     v_reset[m, i % block] = pedestal + e * cg_V
                 else:
                     reset_out[m, i] = adc_code(
-                        pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top)
+                        pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top
+                    )
         for m in range(n_samples):
             e = (collected + k_signal) + read_noise * gen.standard_normal()
             if built:
@@ -436,8 +437,9 @@ def frame_codes(
                 else:
                     codes_out[f, j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
             if built:
-                convert_rows(row, codes_out[f, j : j + 1], v_min, lsb, adc_gain, offset, top,
-                             conv, cgen)
+                convert_rows(
+                    row, codes_out[f, j : j + 1], v_min, lsb, adc_gain, offset, top, conv, cgen
+                )
         for j in range(m):
             for i in range(n):
                 e = (collected[i] + k_signal[i]) + read_noise * gen.standard_normal()
@@ -447,5 +449,14 @@ def frame_codes(
                 else:
                     codes_out[f, m + j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
             if built:
-                convert_rows(row, codes_out[f, m + j : m + j + 1], v_min, lsb, adc_gain, offset,
-                             top, conv, cgen)
+                convert_rows(
+                    row,
+                    codes_out[f, m + j : m + j + 1],
+                    v_min,
+                    lsb,
+                    adc_gain,
+                    offset,
+                    top,
+                    conv,
+                    cgen,
+                )

@@ -71,8 +71,9 @@ def _chunk_seeds(
 
 def _child(seq: np.random.SeedSequence, k: int) -> np.random.Generator:
     """An SFC64 generator on the ``k``-th child of ``seq`` (what ``seq.spawn`` gives it)."""
-    key = np.random.SeedSequence(seq.entropy, spawn_key=(*seq.spawn_key, k),
-                                 pool_size=seq.pool_size)
+    key = np.random.SeedSequence(
+        seq.entropy, spawn_key=(*seq.spawn_key, k), pool_size=seq.pool_size
+    )
     return np.random.Generator(np.random.SFC64(key))
 
 
@@ -320,8 +321,9 @@ def sensor_chain(
     sensor = _sensor_consts(
         qe, full_well_e, ktc_e, read_noise_e, true_cds, read_reset, shot_noise, gaussian_min_mean_e
     )
-    conv = resolve_converter(converter, bits, v_min_V, v_max_V, offset_lsb, gain_error,
-                             (12, 0.0, 1.0, 0.0, 0.0))
+    conv = resolve_converter(
+        converter, bits, v_min_V, v_max_V, offset_lsb, gain_error, (12, 0.0, 1.0, 0.0, 0.0)
+    )
     readout = _readout_consts(pedestal_V, conversion_gain_uV_per_e, conv)
     m = check_int("n_samples", n_samples, 1)
     chunk = check_int("chunk_pixels", chunk_pixels, 1)
@@ -341,8 +343,14 @@ def sensor_chain(
     convs = [conv.kernel_conv(c * chunk, (c + 1) * chunk) for c in range(len(seeds))]
     n_reset = m if read_reset else 0
     plan = _Plan(
-        sensor + readout, convs, comparator_streams(seeds, conv), chunk, m, n_reset,
-        min(threads, len(noise)), n_frames is not None,
+        sensor + readout,
+        convs,
+        comparator_streams(seeds, conv),
+        chunk,
+        m,
+        n_reset,
+        min(threads, len(noise)),
+        n_frames is not None,
     )
     _buffers(first.shape, plan.n_reset, m, out)  # check out now, not at the first frame
     return _run(frames, first, maps, (_shot_states(shot), noise), plan, out)

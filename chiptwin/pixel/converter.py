@@ -107,22 +107,30 @@ class AsBuilt:
         check_scalar("dnl_rms_lsb", self.dnl_rms_lsb, 0.0)
         check_scalar("offset_sigma_lsb", self.offset_sigma_lsb, 0.0)
         check_scalar("gain_sigma", self.gain_sigma, 0.0, 0.1)
-        for name, value, allowed in (("inl_shape", self.inl_shape, INL_SHAPES),
-                                     ("ramp", self.ramp, RAMPS)):
+        for name, value, allowed in (
+            ("inl_shape", self.inl_shape, INL_SHAPES),
+            ("ramp", self.ramp, RAMPS),
+        ):
             if value not in allowed:
                 raise ValueError(f"{name} = {value!r}: must be one of {', '.join(allowed)}")
         has_table = self.inl_table is not None and not (
-            isinstance(self.inl_table, str) and self.inl_table == "")
+            isinstance(self.inl_table, str) and self.inl_table == ""
+        )
         if (self.inl_shape == "table") != has_table:
-            raise ValueError(f"inl_table = {self.inl_table!r}: a table is required with "
-                             "inl_shape = 'table' and allowed only with it")
+            raise ValueError(
+                f"inl_table = {self.inl_table!r}: a table is required with "
+                "inl_shape = 'table' and allowed only with it"
+            )
         if self.inl_shape == "table" and self.inl_max_lsb != 0.0:
-            raise ValueError(f"inl_max_lsb = {self.inl_max_lsb!r}: must be 0 with inl_shape = "
-                             "'table' (the table carries the INL)")
+            raise ValueError(
+                f"inl_max_lsb = {self.inl_max_lsb!r}: must be 0 with inl_shape = "
+                "'table' (the table carries the INL)"
+            )
 
 
-def check_transition_table(levels: ArrayLike, bits: int, name: str = "inl_table"
-                           ) -> NDArray[np.float64]:
+def check_transition_table(
+    levels: ArrayLike, bits: int, name: str = "inl_table"
+) -> NDArray[np.float64]:
     """``levels`` as a float64 vector after checking: ``2^bits − 1`` finite, non-decreasing values.
 
     Raises
@@ -133,15 +141,19 @@ def check_transition_table(levels: ArrayLike, bits: int, name: str = "inl_table"
     arr = np.asarray(levels, dtype=np.float64).reshape(-1)
     want = 2**bits - 1
     if arr.size != want:
-        raise ValueError(f"{name} has {arr.size} transition levels: a {bits}-bit converter "
-                         f"has 2^{bits} − 1 = {want}")
+        raise ValueError(
+            f"{name} has {arr.size} transition levels: a {bits}-bit converter "
+            f"has 2^{bits} − 1 = {want}"
+        )
     if not np.isfinite(arr).all():
         raise ValueError(f"{name} contains NaN or infinite levels: must be finite (LSB)")
     down = np.flatnonzero(np.diff(arr) < 0)
     if down.size:
         k = int(down[0])
-        raise ValueError(f"{name} decreases at level {k + 1}: {arr[k + 1]!r} < {arr[k]!r}; "
-                         "transition levels must be non-decreasing")
+        raise ValueError(
+            f"{name} decreases at level {k + 1}: {arr[k + 1]!r} < {arr[k]!r}; "
+            "transition levels must be non-decreasing"
+        )
     return arr
 
 
@@ -214,8 +226,9 @@ class Converter:
         _check_errors(self.offset_lsb, self.gain_error)
         check_scalar("comparator_noise_lsb", self.comparator_noise_lsb, 0.0)
         if self.ideal:
-            object.__setattr__(self, "_conv", (False, _EMPTY_F, _EMPTY_F, _EMPTY_I, 0.0,
-                                               _NO_LEVELS, _NO_LUT, 0))
+            object.__setattr__(
+                self, "_conv", (False, _EMPTY_F, _EMPTY_F, _EMPTY_I, 0.0, _NO_LEVELS, _NO_LUT, 0)
+            )
             return
         if self.shape is None:
             raise ValueError("shape = None: a converter that is not ideal needs the pixel shape")
@@ -233,18 +246,17 @@ class Converter:
             if self.table_of_pixel is not None:
                 rows = np.ascontiguousarray(self.table_of_pixel, np.int64).reshape(-1)
                 if rows.size != n or rows.min() < 0 or rows.max() >= levels.shape[0]:
-                    raise ValueError(f"table_of_pixel must hold {n} rows of levels in "
-                                     f"[0, {levels.shape[0] - 1}]")
+                    raise ValueError(
+                        f"table_of_pixel must hold {n} rows of levels in [0, {levels.shape[0] - 1}]"
+                    )
             lut, base = _search_lut(levels)
             object.__setattr__(self, "levels", levels)
             levels = _level_major(levels)
         noise = float(self.comparator_noise_lsb)
-        object.__setattr__(self, "_conv",
-                           (True, gain, offset, rows, noise, levels, lut, base))
+        object.__setattr__(self, "_conv", (True, gain, offset, rows, noise, levels, lut, base))
 
     @staticmethod
-    def _per_pixel(name: str, values: ArrayLike | None, n: int, fill: float
-                   ) -> NDArray[np.float64]:
+    def _per_pixel(name: str, values: ArrayLike | None, n: int, fill: float) -> NDArray[np.float64]:
         if values is None:
             return np.full(n, fill)
         arr = np.ascontiguousarray(values, np.float64).reshape(-1)
@@ -253,16 +265,26 @@ class Converter:
         return arr
 
     @classmethod
-    def ideal_adc(cls, bits: int, v_min_V: float, v_max_V: float, offset_lsb: float = 0.0,
-                  gain_error: float = 0.0) -> Converter:
+    def ideal_adc(
+        cls,
+        bits: int,
+        v_min_V: float,
+        v_max_V: float,
+        offset_lsb: float = 0.0,
+        gain_error: float = 0.0,
+    ) -> Converter:
         """Today's converter: the same codes as :func:`~chiptwin.pixel.adc.adc_convert`."""
         return cls(bits, v_min_V, v_max_V, offset_lsb, gain_error)
 
     @property
     def ideal(self) -> bool:
         """No effect: today's arithmetic, nothing drawn."""
-        return (self.comparator_noise_lsb == 0.0 and self.levels is None
-                and self.pixel_gain is None and self.pixel_offset_lsb is None)
+        return (
+            self.comparator_noise_lsb == 0.0
+            and self.levels is None
+            and self.pixel_gain is None
+            and self.pixel_offset_lsb is None
+        )
 
     @property
     def n_pixels(self) -> int | None:
@@ -276,8 +298,13 @@ class Converter:
 
     def consts(self) -> tuple[float, float, float, float, float]:
         """The kernels' nominal constants ``(v_min, lsb, 1 + gain_error, offset, top)``."""
-        return (float(self.v_min_V), self.lsb_V, 1.0 + self.gain_error, float(self.offset_lsb),
-                2.0**self.bits - 1.0)
+        return (
+            float(self.v_min_V),
+            self.lsb_V,
+            1.0 + self.gain_error,
+            float(self.offset_lsb),
+            2.0**self.bits - 1.0,
+        )
 
     def kernel_conv(self, lo: int = 0, hi: int | None = None) -> tuple:
         """The kernels' ``conv`` tuple for converters ``lo … hi − 1`` (a chunk of pixels)."""
@@ -289,21 +316,26 @@ class Converter:
     def check_pixels(self, n_pixels: int, name: str = "converter") -> None:
         """Refuse a converter that is not ideal and describes another number of pixels."""
         if not self.ideal and self.n_pixels != n_pixels:
-            raise ValueError(f"{name} describes {self.n_pixels} converters: the array has "
-                             f"{n_pixels} pixels")
+            raise ValueError(
+                f"{name} describes {self.n_pixels} converters: the array has {n_pixels} pixels"
+            )
 
-    def comparator_stream(self, rng: np.random.Generator | None, name: str = "comparator_rng"
-                          ) -> np.random.Generator:
+    def comparator_stream(
+        self, rng: np.random.Generator | None, name: str = "comparator_rng"
+    ) -> np.random.Generator:
         """The stream comparator noise is drawn from: ``rng``, required when there is noise."""
         if self.comparator_noise_lsb > 0.0:
             if not isinstance(rng, np.random.Generator):
-                raise ValueError(f"{name} = {rng!r}: comparator_noise_lsb = "
-                                 f"{self.comparator_noise_lsb!r} needs a numpy Generator")
+                raise ValueError(
+                    f"{name} = {rng!r}: comparator_noise_lsb = "
+                    f"{self.comparator_noise_lsb!r} needs a numpy Generator"
+                )
             return rng
         return _NO_DRAWS
 
-    def convert(self, volts: ArrayLike, rng: np.random.Generator | None = None
-                ) -> NDArray[np.int64]:
+    def convert(
+        self, volts: ArrayLike, rng: np.random.Generator | None = None
+    ) -> NDArray[np.int64]:
         """Codes of ``volts`` (shape ``(..., *shape)``; any shape when ideal). Unit: codes.
 
         Comparator noise is drawn from ``rng`` in C order of ``volts`` (required with noise).
@@ -313,18 +345,25 @@ class Converter:
         if np.isnan(v).any():
             raise ValueError("volts contains NaN: must be real voltages (±inf clip)")
         if self.ideal:
-            return adc_convert(v, self.bits, self.v_min_V, self.v_max_V, self.offset_lsb,
-                               self.gain_error)
+            return adc_convert(
+                v, self.bits, self.v_min_V, self.v_max_V, self.offset_lsb, self.gain_error
+            )
         n_pix = int(self.n_pixels)  # type: ignore[arg-type]
-        if v.shape[v.ndim - len(self.shape):] != self.shape:  # type: ignore[arg-type]
+        if v.shape[v.ndim - len(self.shape) :] != self.shape:  # type: ignore[arg-type]
             raise ValueError(f"volts has shape {v.shape}: must end with {self.shape}")
         out = np.empty((v.size // n_pix, n_pix), np.int64)
-        _kernels.convert_rows(v.reshape(-1, n_pix), out, *self.consts(), self.kernel_conv(),
-                              self.comparator_stream(rng, "rng"))
+        _kernels.convert_rows(
+            v.reshape(-1, n_pix),
+            out,
+            *self.consts(),
+            self.kernel_conv(),
+            self.comparator_stream(rng, "rng"),
+        )
         return out.reshape(v.shape)
 
-    def expected(self, mean_V: ArrayLike, var_V: ArrayLike
-                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def expected(
+        self, mean_V: ArrayLike, var_V: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Mean and variance of the code for a Gaussian input (``expected`` level). Unit: LSB, LSB².
 
         Per converter: ``μ_i = μ·pixel_gain + pixel_offset``, ``σ_i² = (σ·pixel_gain)² +
@@ -350,8 +389,7 @@ class Converter:
         else:
             mean, var = np.empty_like(mu), np.empty_like(mu)
             rows = np.ascontiguousarray(rows, np.int64).ravel()
-            _kernels.table_moments(mu, sd, rows, self.levels, tuple(lut), _WINDOW_SIGMA, mean,
-                                   var)
+            _kernels.table_moments(mu, sd, rows, self.levels, tuple(lut), _WINDOW_SIGMA, mean, var)
         shape = np.broadcast_shapes(mean_a.shape, () if self.ideal else self.shape)
         return mean.reshape(shape), var.reshape(shape)
 
@@ -402,11 +440,13 @@ def _check_memory(n_tables: int, bits: int, spec: AsBuilt) -> None:
             f"{MAX_TABLE_BYTES / 2**20:.0f} MiB bound (MAX_TABLE_BYTES). Share each ramp among "
             "more converters (ramp = 'chip', or 'column' on fewer columns: a single-slope array "
             "shares its ramp and counter, the DNL's source), use fewer bits, or set "
-            "dnl_rms_lsb = 0")
+            "dnl_rms_lsb = 0"
+        )
 
 
-def _with_dnl(base: NDArray[np.float64], dnl: float, n_tables: int, rng: np.random.Generator
-              ) -> NDArray[np.float64]:
+def _with_dnl(
+    base: NDArray[np.float64], dnl: float, n_tables: int, rng: np.random.Generator
+) -> NDArray[np.float64]:
     """``n_tables`` rows of levels: the interior widths of ``base`` plus ``dnl·z``, clipped at 0,
     scaled back to their sum (end points kept). Draws ``(n_tables, 2^N − 2)`` normals, row-major."""
     widths = np.diff(base)
@@ -430,8 +470,10 @@ def _bow(levels: NDArray[np.float64], inl: float, shape: str) -> NDArray[np.floa
     steepest = abs(inl) * _BOW_SLOPE[shape] / span
     if steepest >= 1.0:
         limit = span / _BOW_SLOPE[shape]
-        raise ValueError(f"inl_max_lsb = {inl!r}: a {shape} bow over {span:g} LSB must stay "
-                         f"below {limit:.4g} LSB in magnitude, or it reverses transitions")
+        raise ValueError(
+            f"inl_max_lsb = {inl!r}: a {shape} bow over {span:g} LSB must stay "
+            f"below {limit:.4g} LSB in magnitude, or it reverses transitions"
+        )
     u = (levels - lo) / (hi - lo)
     unit = 4.0 * u * (1.0 - u) if shape == "quadratic" else u * (1 - u) * (1 - 2 * u) / _CUBIC_PEAK
     return levels + inl * unit
@@ -491,8 +533,11 @@ def build_converter(
     if shaped:
         if table:
             src = spec.inl_table
-            base = (load_transition_table(src, n_bits) if isinstance(src, (str, Path))
-                    else check_transition_table(src, n_bits))
+            base = (
+                load_transition_table(src, n_bits)
+                if isinstance(src, (str, Path))
+                else check_transition_table(src, n_bits)
+            )
         else:
             base = np.arange(2**n_bits - 1, dtype=np.float64) + 0.5
         levels = base[None, :]
@@ -505,8 +550,19 @@ def build_converter(
         offsets = spec.offset_sigma_lsb * streams[1].standard_normal(n)
     if spec.gain_sigma > 0:
         gains = 1.0 + spec.gain_sigma * streams[2].standard_normal(n)
-    return Converter(n_bits, lo, hi, offset_lsb, gain_error, spec.comparator_noise_lsb, levels,
-                     rows if n_tables > 1 else None, gains, offsets, shp)
+    return Converter(
+        n_bits,
+        lo,
+        hi,
+        offset_lsb,
+        gain_error,
+        spec.comparator_noise_lsb,
+        levels,
+        rows if n_tables > 1 else None,
+        gains,
+        offsets,
+        shp,
+    )
 
 
 def resolve_converter(
@@ -523,8 +579,10 @@ def resolve_converter(
     if converter is not None:
         both = [n for n, v in zip(names, given, strict=True) if v is not None]
         if both:
-            raise ValueError(f"{', '.join(both)} given with converter: the converter carries "
-                             "the nominal ADC; give one or the other")
+            raise ValueError(
+                f"{', '.join(both)} given with converter: the converter carries "
+                "the nominal ADC; give one or the other"
+            )
         if not isinstance(converter, Converter):
             raise ValueError(f"converter = {converter!r}: must be a chiptwin.pixel.Converter")
         return converter

@@ -55,8 +55,9 @@ def _oracle(levels: np.ndarray, x: np.ndarray) -> np.ndarray:
 def test_defaults_give_todays_codes(offset, gain):
     rng = np.random.default_rng(1)
     volts = _volts_with_ties(rng, 4000, (2, 3))
-    conv = build_converter(rng, (2, 3), bits=BITS, v_min_V=0.0, v_max_V=1.0, offset_lsb=offset,
-                           gain_error=gain)
+    conv = build_converter(
+        rng, (2, 3), bits=BITS, v_min_V=0.0, v_max_V=1.0, offset_lsb=offset, gain_error=gain
+    )
     assert conv.ideal
     assert np.array_equal(conv.convert(volts), adc_convert(volts, BITS, 0.0, 1.0, offset, gain))
 
@@ -64,8 +65,14 @@ def test_defaults_give_todays_codes(offset, gain):
 def test_defaults_draw_nothing_from_the_map_stream():
     rng = np.random.default_rng(2)
     state = rng.bit_generator.state
-    build_converter(rng, (8, 16), bits=13, v_min_V=0.0, v_max_V=1.0,
-                    as_built=AsBuilt(inl_max_lsb=2.0, comparator_noise_lsb=0.5))
+    build_converter(
+        rng,
+        (8, 16),
+        bits=13,
+        v_min_V=0.0,
+        v_max_V=1.0,
+        as_built=AsBuilt(inl_max_lsb=2.0, comparator_noise_lsb=0.5),
+    )
     assert rng.bit_generator.state == state  # INL and comparator noise are not map draws
 
 
@@ -83,35 +90,68 @@ def test_ideal_table_is_rint_with_ties_to_even():
 
 
 def _chain_kw():
-    return dict(qe=0.5, dark_e=20.0, full_well_e=2e4, read_noise_e=30.0, ktc_e=40.0,
-                conversion_gain_uV_per_e=30.0, pedestal_V=0.05, n_samples=2, read_reset=True)
+    return dict(
+        qe=0.5,
+        dark_e=20.0,
+        full_well_e=2e4,
+        read_noise_e=30.0,
+        ktc_e=40.0,
+        conversion_gain_uV_per_e=30.0,
+        pedestal_V=0.05,
+        n_samples=2,
+        read_reset=True,
+    )
 
 
 def test_sensor_chain_with_the_ideal_converter_is_unchanged():
     photons = np.random.default_rng(4).uniform(0, 2e4, (20, 30))
     kw = _chain_kw()
-    conv = build_converter(np.random.default_rng(0), (20, 30), bits=12, v_min_V=0.0,
-                           v_max_V=1.0, offset_lsb=0.3)
-    ref = [tuple(map(np.copy, f)) for f in sensor_chain(
-        np.random.default_rng(9), photons, n_frames=3, bits=12, v_min_V=0.0, v_max_V=1.0,
-        offset_lsb=0.3, chunk_pixels=256, **kw)]
-    got = [tuple(map(np.copy, f)) for f in sensor_chain(
-        np.random.default_rng(9), photons, n_frames=3, converter=conv, chunk_pixels=256, **kw)]
+    conv = build_converter(
+        np.random.default_rng(0), (20, 30), bits=12, v_min_V=0.0, v_max_V=1.0, offset_lsb=0.3
+    )
+    ref = [
+        tuple(map(np.copy, f))
+        for f in sensor_chain(
+            np.random.default_rng(9),
+            photons,
+            n_frames=3,
+            bits=12,
+            v_min_V=0.0,
+            v_max_V=1.0,
+            offset_lsb=0.3,
+            chunk_pixels=256,
+            **kw,
+        )
+    ]
+    got = [
+        tuple(map(np.copy, f))
+        for f in sensor_chain(
+            np.random.default_rng(9), photons, n_frames=3, converter=conv, chunk_pixels=256, **kw
+        )
+    ]
     for (r0, s0), (r1, s1) in zip(ref, got, strict=True):
         assert np.array_equal(r0, r1) and np.array_equal(s0, s1)
 
 
 def _frames_kw():
-    return dict(full_well_e=3e4, ktc_e=40.0, read_noise_e=30.0, n_samples=2, true_cds=True,
-                conversion_gain_uV_per_e=30.0, pedestal_V=0.05)
+    return dict(
+        full_well_e=3e4,
+        ktc_e=40.0,
+        read_noise_e=30.0,
+        n_samples=2,
+        true_cds=True,
+        conversion_gain_uV_per_e=30.0,
+        pedestal_V=0.05,
+    )
 
 
 def test_binned_codes_with_the_ideal_converter_is_unchanged():
     lam = np.random.default_rng(5).uniform(0, 2e4, (4, 300))
     conv = Converter.ideal_adc(12, 0.0, 1.0, -0.4, 0.01)
     r0, r1 = np.random.default_rng(6), np.random.default_rng(6)
-    ref = binned_codes(r0, lam, bits=12, v_min_V=0.0, v_max_V=1.0, offset_lsb=-0.4,
-                       gain_error=0.01, **_frames_kw())
+    ref = binned_codes(
+        r0, lam, bits=12, v_min_V=0.0, v_max_V=1.0, offset_lsb=-0.4, gain_error=0.01, **_frames_kw()
+    )
     got = binned_codes(r1, lam, converter=conv, **_frames_kw())
     assert np.array_equal(ref, got) and r0.bit_generator.state == r1.bit_generator.state
 
@@ -133,8 +173,18 @@ def test_injected_table_is_applied_exactly():
     levels = np.array([_random_table(rng, BITS) for _ in range(4)])
     gain, offset = 1.0 + 0.01 * rng.standard_normal(12), 0.3 * rng.standard_normal(12)
     rows = np.tile(np.arange(4), 3)
-    conv = Converter(BITS, 0.0, 1.0, 0.2, 0.01, levels=levels, table_of_pixel=rows,
-                     pixel_gain=gain, pixel_offset_lsb=offset, shape=shape)
+    conv = Converter(
+        BITS,
+        0.0,
+        1.0,
+        0.2,
+        0.01,
+        levels=levels,
+        table_of_pixel=rows,
+        pixel_gain=gain,
+        pixel_offset_lsb=offset,
+        shape=shape,
+    )
     volts = rng.uniform(-0.05, 1.05, (3000, *shape))
     x = ((volts - 0.0) / LSB * 1.01 + 0.2) * gain.reshape(shape) + offset.reshape(shape)
     want = np.empty(x.shape, np.int64)
@@ -150,8 +200,14 @@ def test_injected_table_is_applied_exactly():
 
 def test_missing_codes_never_appear():
     rng = np.random.default_rng(8)
-    conv = build_converter(rng, (2, 2), bits=8, v_min_V=0.0, v_max_V=1.0,
-                           as_built=AsBuilt(dnl_rms_lsb=0.8, ramp="column"))
+    conv = build_converter(
+        rng,
+        (2, 2),
+        bits=8,
+        v_min_V=0.0,
+        v_max_V=1.0,
+        as_built=AsBuilt(dnl_rms_lsb=0.8, ramp="column"),
+    )
     volts = np.linspace(-0.01, 1.01, 200_001)[:, None, None] * np.ones((1, 2, 2))
     codes = conv.convert(volts)
     for row in range(2):
@@ -166,24 +222,42 @@ def test_missing_codes_never_appear():
 def test_dnl_statistics_match_dnl_rms():
     """Small σ (no clipping): the widths' rms is σ within its standard error; the end points stay.
     Large σ: the fraction of missing codes is P(1 + σz ≤ 0) = Φ(−1/σ) within binomial error."""
-    conv = build_converter(np.random.default_rng(10), (4,), bits=13, v_min_V=0.0, v_max_V=1.0,
-                           as_built=AsBuilt(dnl_rms_lsb=0.1, ramp="pixel"))
+    conv = build_converter(
+        np.random.default_rng(10),
+        (4,),
+        bits=13,
+        v_min_V=0.0,
+        v_max_V=1.0,
+        as_built=AsBuilt(dnl_rms_lsb=0.1, ramp="pixel"),
+    )
     widths = np.diff(conv.levels, axis=1)
     assert conv.levels.shape == (4, 8191)
     assert np.all(conv.levels[:, 0] == 0.5) and np.all(conv.levels[:, -1] == 8190.5)
     n = widths.size
     assert abs(widths.std() - 0.1) < 4 * 0.1 / np.sqrt(2 * n)
     assert abs(np.corrcoef(widths[0], widths[1])[0, 1]) < 4 / np.sqrt(widths.shape[1])
-    wide = build_converter(np.random.default_rng(11), (1,), bits=13, v_min_V=0.0, v_max_V=1.0,
-                           as_built=AsBuilt(dnl_rms_lsb=0.8))
+    wide = build_converter(
+        np.random.default_rng(11),
+        (1,),
+        bits=13,
+        v_min_V=0.0,
+        v_max_V=1.0,
+        as_built=AsBuilt(dnl_rms_lsb=0.8),
+    )
     frac, p = np.mean(np.diff(wide.levels[0]) == 0.0), ndtr(-1.0 / 0.8)
     assert abs(frac - p) < 4 * np.sqrt(p * (1 - p) / 8190)
 
 
 def test_inl_bow_has_its_peak_and_keeps_the_end_points():
     for shape, u_peak in (("quadratic", 0.5), ("cubic", 0.5 - 0.5 / np.sqrt(3))):
-        conv = build_converter(np.random.default_rng(0), (1,), bits=12, v_min_V=0.0,
-                               v_max_V=1.0, as_built=AsBuilt(inl_max_lsb=3.0, inl_shape=shape))
+        conv = build_converter(
+            np.random.default_rng(0),
+            (1,),
+            bits=12,
+            v_min_V=0.0,
+            v_max_V=1.0,
+            as_built=AsBuilt(inl_max_lsb=3.0, inl_shape=shape),
+        )
         inl = conv.levels[0] - (np.arange(4095) + 0.5)
         assert inl[0] == 0.0 and inl[-1] == 0.0
         assert abs(inl.max() - 3.0) < 1e-5 and abs(np.argmax(inl) / 4094 - u_peak) < 1e-3
@@ -205,10 +279,18 @@ def test_expected_with_the_ideal_table_is_todays_sum():
 def test_expected_matches_a_monte_carlo_of_the_binned_path():
     """INL, DNL, mismatch and comparator noise on: the moments of the codes of Gaussian inputs."""
     rng = np.random.default_rng(12)
-    spec = AsBuilt(comparator_noise_lsb=0.3, inl_max_lsb=2.5, inl_shape="cubic", dnl_rms_lsb=0.5,
-                   offset_sigma_lsb=0.7, gain_sigma=0.02, ramp="column")
-    conv = build_converter(rng, (2, 3), bits=8, v_min_V=0.0, v_max_V=1.0, offset_lsb=0.1,
-                           as_built=spec)
+    spec = AsBuilt(
+        comparator_noise_lsb=0.3,
+        inl_max_lsb=2.5,
+        inl_shape="cubic",
+        dnl_rms_lsb=0.5,
+        offset_sigma_lsb=0.7,
+        gain_sigma=0.02,
+        ramp="column",
+    )
+    conv = build_converter(
+        rng, (2, 3), bits=8, v_min_V=0.0, v_max_V=1.0, offset_lsb=0.1, as_built=spec
+    )
     mean_V = np.array([[0.0, 17.3, 100.5], [200.2, 254.9, 64.0]]) / 256
     sd_V = np.array([[0.4, 0.0, 0.2], [1.5, 0.8, 3.0]]) / 256
     m, v = conv.expected(mean_V, sd_V**2)
@@ -272,8 +354,9 @@ def test_binned_codes_dither_the_pedestal_with_the_comparator_stream():
     kw = dict(_frames_kw(), ktc_e=0.0, read_noise_e=0.0, n_samples=8, pedestal_V=level * LSB)
     conv = Converter(BITS, 0.0, 1.0, comparator_noise_lsb=0.6, shape=(50,))
     r0, r1 = np.random.default_rng(18), np.random.default_rng(18)
-    codes = binned_codes(r0, np.zeros((400, 50)), converter=conv,
-                         comparator_rng=np.random.default_rng(19), **kw)
+    codes = binned_codes(
+        r0, np.zeros((400, 50)), converter=conv, comparator_rng=np.random.default_rng(19), **kw
+    )
     binned_codes(r1, np.zeros((400, 50)), bits=BITS, v_min_V=0.0, v_max_V=1.0, **kw)
     assert r0.bit_generator.state == r1.bit_generator.state
     err = codes[:, 8:].astype(float).mean() - level
@@ -286,10 +369,17 @@ def test_binned_codes_dither_the_pedestal_with_the_comparator_stream():
 
 
 def _built(shape: tuple[int, ...], bits: int = 12) -> Converter:
-    spec = AsBuilt(comparator_noise_lsb=0.4, inl_max_lsb=2.0, dnl_rms_lsb=0.2, ramp="column",
-                   offset_sigma_lsb=0.5, gain_sigma=0.01)
-    return build_converter(np.random.default_rng(20), shape, bits=bits, v_min_V=0.0,
-                           v_max_V=1.0, as_built=spec)
+    spec = AsBuilt(
+        comparator_noise_lsb=0.4,
+        inl_max_lsb=2.0,
+        dnl_rms_lsb=0.2,
+        ramp="column",
+        offset_sigma_lsb=0.5,
+        gain_sigma=0.01,
+    )
+    return build_converter(
+        np.random.default_rng(20), shape, bits=bits, v_min_V=0.0, v_max_V=1.0, as_built=spec
+    )
 
 
 def test_sensor_chain_as_built_does_not_depend_on_the_thread_count():
@@ -297,8 +387,15 @@ def test_sensor_chain_as_built_does_not_depend_on_the_thread_count():
     conv = _built((24, 40))
     runs = []
     for threads in (1, 2, 3):
-        frames = sensor_chain(np.random.default_rng(22), photons, n_frames=2, converter=conv,
-                              n_threads=threads, chunk_pixels=200, **_chain_kw())
+        frames = sensor_chain(
+            np.random.default_rng(22),
+            photons,
+            n_frames=2,
+            converter=conv,
+            n_threads=threads,
+            chunk_pixels=200,
+            **_chain_kw(),
+        )
         runs.append([np.concatenate([np.copy(r), np.copy(s)]) for r, s in frames])
     for run in runs[1:]:
         assert all(np.array_equal(a, b) for a, b in zip(run, runs[0], strict=True))
@@ -310,9 +407,14 @@ def test_binned_codes_as_built_does_not_depend_on_the_thread_count():
     conv = _built((2, n // 2), bits=10)
     runs = []
     for threads in (1, 2, 3):
-        codes = binned_codes(chunk_streams(np.random.default_rng(24), n), lam, converter=conv,
-                             comparator_rng=chunk_streams(np.random.default_rng(25), n),
-                             threads=threads, **_frames_kw())
+        codes = binned_codes(
+            chunk_streams(np.random.default_rng(24), n),
+            lam,
+            converter=conv,
+            comparator_rng=chunk_streams(np.random.default_rng(25), n),
+            threads=threads,
+            **_frames_kw(),
+        )
         runs.append(codes)
     assert all(np.array_equal(r, runs[0]) for r in runs[1:])
 
@@ -321,14 +423,37 @@ def test_comparator_noise_shifts_no_other_draw():
     """A vanishing comparator noise leaves every code of the noiseless converter (no ties in a
     continuous scene), so its draws come from their own stream."""
     photons = np.random.default_rng(26).uniform(0, 2e4, (10, 30))
-    quiet = build_converter(np.random.default_rng(0), (10, 30), bits=12, v_min_V=0.0,
-                            v_max_V=1.0, as_built=AsBuilt(inl_max_lsb=1.5))
-    noisy = Converter(12, 0.0, 1.0, comparator_noise_lsb=1e-12, levels=quiet.levels,
-                      shape=(10, 30))
-    a = [np.copy(s) for _, s in sensor_chain(np.random.default_rng(27), photons, n_frames=2,
-                                             converter=quiet, chunk_pixels=128, **_chain_kw())]
-    b = [np.copy(s) for _, s in sensor_chain(np.random.default_rng(27), photons, n_frames=2,
-                                             converter=noisy, chunk_pixels=128, **_chain_kw())]
+    quiet = build_converter(
+        np.random.default_rng(0),
+        (10, 30),
+        bits=12,
+        v_min_V=0.0,
+        v_max_V=1.0,
+        as_built=AsBuilt(inl_max_lsb=1.5),
+    )
+    noisy = Converter(12, 0.0, 1.0, comparator_noise_lsb=1e-12, levels=quiet.levels, shape=(10, 30))
+    a = [
+        np.copy(s)
+        for _, s in sensor_chain(
+            np.random.default_rng(27),
+            photons,
+            n_frames=2,
+            converter=quiet,
+            chunk_pixels=128,
+            **_chain_kw(),
+        )
+    ]
+    b = [
+        np.copy(s)
+        for _, s in sensor_chain(
+            np.random.default_rng(27),
+            photons,
+            n_frames=2,
+            converter=noisy,
+            chunk_pixels=128,
+            **_chain_kw(),
+        )
+    ]
     assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
 
 
@@ -367,40 +492,70 @@ def test_bad_tables_name_the_key(tmp_path):
     with pytest.raises(ValueError, match="inl_table"):
         load_transition_table(path, 2)
     spec = AsBuilt(inl_shape="table", inl_table=str(tmp_path / "levels.npy"))
-    conv = build_converter(np.random.default_rng(0), (1,), bits=2, v_min_V=0.0, v_max_V=1.0,
-                           as_built=spec)
+    conv = build_converter(
+        np.random.default_rng(0), (1,), bits=2, v_min_V=0.0, v_max_V=1.0, as_built=spec
+    )
     assert list(conv.convert(np.array([[0.05], [0.25], [0.5], [0.75]]))[:, 0]) == [0, 1, 2, 3]
 
 
 def test_reversing_bow_and_oversized_tables_are_refused():
     with pytest.raises(ValueError, match="inl_max_lsb"):
-        build_converter(np.random.default_rng(0), (1,), bits=4, v_min_V=0.0, v_max_V=1.0,
-                        as_built=AsBuilt(inl_max_lsb=4.0))
+        build_converter(
+            np.random.default_rng(0),
+            (1,),
+            bits=4,
+            v_min_V=0.0,
+            v_max_V=1.0,
+            as_built=AsBuilt(inl_max_lsb=4.0),
+        )
     with pytest.raises(ValueError, match="ramp = 'pixel' with dnl_rms_lsb = 0.1.*GB"):
-        build_converter(np.random.default_rng(0), (256, 256), bits=13, v_min_V=0.0,
-                        v_max_V=1.0, as_built=AsBuilt(dnl_rms_lsb=0.1, ramp="pixel"))
+        build_converter(
+            np.random.default_rng(0),
+            (256, 256),
+            bits=13,
+            v_min_V=0.0,
+            v_max_V=1.0,
+            as_built=AsBuilt(dnl_rms_lsb=0.1, ramp="pixel"),
+        )
     # per-pixel ramps without DNL share one table: 256 × 256 at 13 bits is small
-    conv = build_converter(np.random.default_rng(0), (256, 256), bits=13, v_min_V=0.0,
-                           v_max_V=1.0, as_built=AsBuilt(inl_max_lsb=3.0, ramp="pixel",
-                                                         offset_sigma_lsb=0.5))
+    conv = build_converter(
+        np.random.default_rng(0),
+        (256, 256),
+        bits=13,
+        v_min_V=0.0,
+        v_max_V=1.0,
+        as_built=AsBuilt(inl_max_lsb=3.0, ramp="pixel", offset_sigma_lsb=0.5),
+    )
     assert conv.levels.shape == (1, 8191) and conv.levels.nbytes * 1.5 < MAX_TABLE_BYTES
 
 
 def test_converter_and_keywords_are_exclusive():
     conv = Converter.ideal_adc(12, 0.0, 1.0)
     with pytest.raises(ValueError, match="bits given with converter"):
-        binned_codes(np.random.default_rng(0), np.zeros((1, 3)), bits=12, converter=conv,
-                     **_frames_kw())
+        binned_codes(
+            np.random.default_rng(0), np.zeros((1, 3)), bits=12, converter=conv, **_frames_kw()
+        )
     with pytest.raises(ValueError, match="converter describes 4 converters"):
-        binned_codes(np.random.default_rng(0), np.zeros((1, 3)),
-                     converter=Converter(12, 0.0, 1.0, comparator_noise_lsb=0.1, shape=(4,)),
-                     comparator_rng=np.random.default_rng(1), **_frames_kw())
+        binned_codes(
+            np.random.default_rng(0),
+            np.zeros((1, 3)),
+            converter=Converter(12, 0.0, 1.0, comparator_noise_lsb=0.1, shape=(4,)),
+            comparator_rng=np.random.default_rng(1),
+            **_frames_kw(),
+        )
 
 
 def test_switching_one_effect_on_keeps_the_others_draws():
     base = AsBuilt(dnl_rms_lsb=0.3, gain_sigma=0.01)
-    a = build_converter(np.random.default_rng(30), (4, 4), bits=8, v_min_V=0.0, v_max_V=1.0,
-                        as_built=base)
-    b = build_converter(np.random.default_rng(30), (4, 4), bits=8, v_min_V=0.0, v_max_V=1.0,
-                        as_built=AsBuilt(dnl_rms_lsb=0.3, gain_sigma=0.01, offset_sigma_lsb=1.0))
+    a = build_converter(
+        np.random.default_rng(30), (4, 4), bits=8, v_min_V=0.0, v_max_V=1.0, as_built=base
+    )
+    b = build_converter(
+        np.random.default_rng(30),
+        (4, 4),
+        bits=8,
+        v_min_V=0.0,
+        v_max_V=1.0,
+        as_built=AsBuilt(dnl_rms_lsb=0.3, gain_sigma=0.01, offset_sigma_lsb=1.0),
+    )
     assert np.array_equal(a.levels, b.levels) and np.array_equal(a.pixel_gain, b.pixel_gain)
