@@ -16,7 +16,11 @@ rounds in one process (this machine is shared and noisy; medians are reported):
   conversion reads the table of its column, out of cache when neighbouring pixels' codes differ
   (this scene's are uniform over ~3000 codes).
 
-Usage: ``python benchmarks/bench_adc.py [--quick] [--rounds 7] [--frames 4]``. Prints one line per
+Scenes (``--scene``): ``uniform`` (default, the worst case for the lookup's cache: 500–20000
+photons per pixel, uniform, so neighbouring pixels' signal codes are unrelated) or ``dark`` (0–200
+photons: a luminescence chip's usual frame, every code within ~100 LSB of the pedestal).
+
+Usage: ``python benchmarks/bench_adc.py [--quick] [--rounds 7] [--frames 4] [--scene dark]``. Prints one line per
 contender with its median time and its ratio to ``ideal``.
 """
 
@@ -117,10 +121,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="1 frame, 3 rounds (a smoke run)")
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--frames", type=int, default=4)
+    ap.add_argument("--scene", choices=("uniform", "dark"), default="uniform")
     args = ap.parse_args(argv)
     rounds, frames = (3, 1) if args.quick else (args.rounds, args.frames)
     rng = np.random.default_rng(0)
-    photons = rng.uniform(500.0, 20000.0, (SIDE, SIDE))
+    lo, hi = (500.0, 20000.0) if args.scene == "uniform" else (0.0, 200.0)
+    photons = rng.uniform(lo, hi, (SIDE, SIDE))
     lam = 0.5 * photons.reshape(1, -1).repeat(frames, axis=0) + 50.0
     adcs = {name: _adc(name) for name in SPECS}
     for label, make in (
@@ -129,7 +135,8 @@ def main(argv: list[str] | None = None) -> int:
     ):
         medians = time_rounds({name: make(adc) for name, adc in adcs.items()}, rounds)
         print(
-            f"{label}: {SIDE}x{SIDE} px, {BITS} bits, {frames} frames x {2 * M} conversions, "
+            f"{label}: {SIDE}x{SIDE} px, {args.scene} scene, {BITS} bits, {frames} frames x "
+            f"{2 * M} conversions, "
             f"median of {rounds}"
         )
         for name, t in medians.items():

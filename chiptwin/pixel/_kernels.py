@@ -191,23 +191,25 @@ CELLS_PER_LSB: float = 2.0
 def table_code(x: float, levels: np.ndarray, lut: np.ndarray, base: int, r: int) -> int:
     """Code of the continuous input ``x`` (not NaN) on ramp ``r`` of the levels ``levels``.
 
-    ``levels[:, r]`` (level-major: converters of neighbouring ramps at similar codes read
-    neighbouring memory) holds the ``n`` non-decreasing levels of ramp ``r`` and a last row of
-    +inf. Code ``k`` covers ``levels[k−1, r] ≤ x < levels[k, r]``: the code is
+    ``levels[r]`` holds the ``n`` non-decreasing levels of ramp ``r`` and a last column of +inf.
+    Code ``k`` covers ``levels[r, k−1] ≤ x < levels[r, k]``: the code is
     ``#{levels ≤ x}``. On a level exactly (``lo = #{< x}`` < ``hi = #{≤ x}``) it is ``lo`` if
     ``lo`` is even, else ``hi``: half to even, so the ideal table ``k + 0.5`` gives
     ``numpy.rint`` bit for bit.
 
-    The LUT ``lut[c, r] = (level, below)``: cell ``c`` is ``[(base + c)/CELLS_PER_LSB,
-    (base + c + 1)/CELLS_PER_LSB)``, ``below`` counts the levels under it and ``level`` is its
-    one level (+inf if none, NaN if several: then the levels are walked). The first and last
-    cells lie beyond every level; ``x`` is clamped into them (branch-free) and scaled by a power
-    of two and floored, which is exact. The kernels' loop (:func:`_table_rows`) writes this out.
+    The LUT ``lut[r, c] = (level, below)`` (each ramp's cells together: a converter's samples,
+    spread by noise over some codes, read one stretch of memory; level-major storage, which
+    interleaves the ramps, ran 5–10× slower with a table per column, measured): cell ``c`` is
+    ``[(base + c)/CELLS_PER_LSB, (base + c + 1)/CELLS_PER_LSB)``, ``below`` counts the levels
+    under it and ``level`` is its one level (+inf if none, NaN if several: then the levels are
+    walked). The first and last cells lie beyond every level; ``x`` is clamped into them
+    (branch-free) and scaled by a power of two and floored, which is exact. The kernels' loop
+    (:func:`_table_rows`) writes this out.
     """
-    xc = min(max(x, base / CELLS_PER_LSB), (base + lut.shape[0] - 1) / CELLS_PER_LSB)
+    xc = min(max(x, base / CELLS_PER_LSB), (base + lut.shape[1] - 1) / CELLS_PER_LSB)
     c = int(math.floor(xc * CELLS_PER_LSB)) - base
-    t = lut[c, r, 0]
-    k = np.int64(lut[c, r, 1])
+    t = lut[r, c, 0]
+    k = np.int64(lut[r, c, 1])
     if t == t:  # at most one level in the cell: one comparison, no search
         return k + int(xc > t) + int(xc == t) * (k & 1)
     return _walk(xc, levels, k, r)
@@ -218,11 +220,11 @@ def _walk(x: float, levels: np.ndarray, k: int, r: int) -> int:
     """:func:`table_code` in a cell of several levels: walk from the ``k`` below it. Not
     inlined: the loops, rarely run, would slow the one-comparison path threefold (measured)."""
     hi = k
-    while levels[hi, r] <= x:
+    while levels[r, hi] <= x:
         hi += 1
-    if levels[hi - 1, r] == x:  # on a level: half to even
+    if levels[r, hi - 1] == x:  # on a level: half to even
         lo = hi - 1
-        while lo > 0 and levels[lo - 1, r] == x:
+        while lo > 0 and levels[r, lo - 1] == x:
             lo -= 1
         if lo % 2 == 0:
             return lo
@@ -279,7 +281,7 @@ def _table_rows(volts, out, v_min, lsb, gain, offset, c_gain, c_offset, dither, 
     inlined call at every conversion, or a generator call anywhere in this loop, cost 10–25 ns
     a conversion more; measured)."""
     noisy = dither.shape[0] > 0
-    x_lo, x_hi = base / CELLS_PER_LSB, (base + lut.shape[0] - 1) / CELLS_PER_LSB
+    x_lo, x_hi = base / CELLS_PER_LSB, (base + lut.shape[1] - 1) / CELLS_PER_LSB
     for m in range(volts.shape[0]):
         for i in range(volts.shape[1]):
             x = (volts[m, i] - v_min) / lsb * gain + offset
@@ -289,8 +291,8 @@ def _table_rows(volts, out, v_min, lsb, gain, offset, c_gain, c_offset, dither, 
             r = rows[i]
             xc = min(max(x, x_lo), x_hi)
             c = int(math.floor(xc * CELLS_PER_LSB)) - base
-            t = lut[c, r, 0]
-            k = np.int64(lut[c, r, 1])
+            t = lut[r, c, 0]
+            k = np.int64(lut[r, c, 1])
             if t == t:
                 out[m, i] = k + int(xc > t) + int(xc == t) * (k & 1)
             else:
@@ -298,27 +300,28 @@ def _table_rows(volts, out, v_min, lsb, gain, offset, c_gain, c_offset, dither, 
 
 
 @NJIT
-def table_moments(mu, sd, rows, levels, lut, window, out_mean, out_var):
-    """Mean and variance of the code for ``X ~ N(mu[i], sd[i]²)`` on the levels ``levels[rows[i]]``.
+def table_moments(mu, sd, rows, lut, window, out_mean, out_var):
+    """Mean and variance of the code for ``X ~ N(mu[i], sd[i]²)`` on the levels of ramp
+    ``rows[i]``; ``lut = (levels, lut, base)`` as in :func:`table_code`.
 
     ``P(code = k) = S(levels[k−1]) − S(levels[k])`` with ``S(t) = P(X ≥ t)``, summed over the
     codes whose levels lie within ``± window·sd`` (beyond: ``S = 1`` below, ``0`` above), centred
-    on the code of ``mu`` for precision. ``sd = 0``: the code of ``mu`` (:func:`table_code` with
-    ``lut = (levels_t, lut, base)``, the level-major padded twin of ``levels`` and its LUT).
+    on the code of ``mu`` for precision. ``sd = 0``: the code of ``mu`` (:func:`table_code`).
     """
-    n = levels.shape[1]
+    levels = lut[0]
+    n = levels.shape[1] - 1
     for i in range(mu.size):
         r, m, s = rows[i], mu[i], sd[i]
-        centre = table_code(m, lut[0], lut[1], lut[2], r)
+        centre = table_code(m, levels, lut[1], lut[2], r)
         if s == 0.0:
             out_mean[i], out_var[i] = float(centre), 0.0
             continue
-        j0 = np.searchsorted(levels[r], m - window * s, side="left")
-        j1 = np.searchsorted(levels[r], m + window * s, side="right")
+        j0 = np.searchsorted(levels[r, :n], m - window * s, side="left")
+        j1 = np.searchsorted(levels[r, :n], m + window * s, side="right")
         s_prev, m1, m2 = 1.0, 0.0, 0.0
         scale = 1.0 / (s * math.sqrt(2.0))
         for k in range(j0, j1 + 1):
-            s_next = 0.5 * math.erfc((levels[r, k] - m) * scale) if k < j1 and k < n else 0.0
+            s_next = 0.5 * math.erfc((levels[r, k] - m) * scale) if k < j1 else 0.0
             p = s_prev - s_next
             d = float(k - centre)
             m1 += p * d

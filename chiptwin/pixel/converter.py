@@ -54,10 +54,9 @@ from chiptwin.pixel.adc import (
 RAMPS: tuple[str, ...] = ("chip", "column", "pixel")
 INL_SHAPES: tuple[str, ...] = ("quadratic", "cubic", "table")
 
-#: Largest memory the transition tables may take: 48 B per level (the levels twice, row-major
-#: for the expected level and level-major for the kernels, 8 B each, and the search LUT, 16 B a
-#: cell, two cells per LSB). 256 × 256 converters on their own ramps with 13 bits would need
-#: 26 GB. Unit: byte.
+#: Largest memory the transition tables may take: 40 B per level (the level, 8 B, and the search
+#: LUT, 16 B a cell, two cells per LSB). 256 × 256 converters on their own ramps with 13 bits
+#: would need 21 GB. Unit: byte.
 MAX_TABLE_BYTES: int = 256 * 2**20
 
 #: Peak of ``u(1−u)(1−2u)`` on [0, 1] (at ``u = 1/2 − 1/(2√3)``): ``1/(6√3)``.
@@ -126,6 +125,27 @@ class AsBuilt:
                 f"inl_max_lsb = {self.inl_max_lsb!r}: must be 0 with inl_shape = "
                 "'table' (the table carries the INL)"
             )
+
+    @classmethod
+    def from_keys(cls, section: object, base_dir: str | Path | None = None) -> AsBuilt:
+        """The effects read by name from any object holding the ``[chip.adc]`` keys (the
+        scenario's ``Adc``; this layer does not import the config). A relative ``inl_table`` is
+        taken from ``base_dir`` (the scenario's folder); ``""`` means none."""
+        names = (
+            "comparator_noise_lsb",
+            "inl_max_lsb",
+            "inl_shape",
+            "inl_table",
+            "dnl_rms_lsb",
+            "offset_sigma_lsb",
+            "gain_sigma",
+            "ramp",
+        )
+        kw = {n: getattr(section, n) for n in names if hasattr(section, n)}
+        table = kw.get("inl_table")
+        if isinstance(table, (str, Path)) and str(table) and base_dir is not None:
+            kw["inl_table"] = str(Path(base_dir) / table)
+        return cls(**kw)
 
 
 def check_transition_table(
@@ -250,8 +270,8 @@ class Converter:
                         f"table_of_pixel must hold {n} rows of levels in [0, {levels.shape[0] - 1}]"
                     )
             lut, base = _search_lut(levels)
-            object.__setattr__(self, "levels", levels)
-            levels = _level_major(levels)
+            levels = _padded(levels)
+            object.__setattr__(self, "levels", levels[:, :-1])  # a view: stored once
         noise = float(self.comparator_noise_lsb)
         object.__setattr__(self, "_conv", (True, gain, offset, rows, noise, levels, lut, base))
 
@@ -389,34 +409,34 @@ class Converter:
         else:
             mean, var = np.empty_like(mu), np.empty_like(mu)
             rows = np.ascontiguousarray(rows, np.int64).ravel()
-            _kernels.table_moments(mu, sd, rows, self.levels, tuple(lut), _WINDOW_SIGMA, mean, var)
+            _kernels.table_moments(mu, sd, rows, tuple(lut), _WINDOW_SIGMA, mean, var)
         shape = np.broadcast_shapes(mean_a.shape, () if self.ideal else self.shape)
         return mean.reshape(shape), var.reshape(shape)
 
 
 def _search_lut(levels: NDArray[np.float64]) -> tuple[NDArray[np.float64], int]:
-    """The LUT of :func:`~chiptwin.pixel._kernels.table_code`, ``(n_cells, n_tables, 2)``: for
+    """The LUT of :func:`~chiptwin.pixel._kernels.table_code`, ``(n_tables, n_cells, 2)``: for
     each cell of ``1/CELLS_PER_LSB`` LSB, from one below the lowest level's to one above the
     highest's, its one level (+inf if none, NaN if several) and the count of levels below it."""
     per = _kernels.CELLS_PER_LSB
     base = int(math.floor(levels[:, 0].min() * per)) - 1
     edges = np.arange(base, int(math.floor(levels[:, -1].max() * per)) + 3) / per
-    lut = np.empty((edges.size - 1, levels.shape[0], 2))
+    lut = np.empty((levels.shape[0], edges.size - 1, 2))
     for r in range(levels.shape[0]):
         k = np.searchsorted(levels[r], edges, side="left")
         count = np.diff(k)
         first = levels[r][np.minimum(k[:-1], levels.shape[1] - 1)]
-        lut[:, r, 0] = np.where(count == 0, np.inf, np.where(count == 1, first, np.nan))
-        lut[:, r, 1] = k[:-1]
+        lut[r, :, 0] = np.where(count == 0, np.inf, np.where(count == 1, first, np.nan))
+        lut[r, :, 1] = k[:-1]
     return lut, base
 
 
-def _level_major(levels: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``(n + 1, n_tables)``: the levels level-major, with a last row of +inf (the kernels' search
-    then needs no bound check)."""
-    out = np.empty((levels.shape[1] + 1, levels.shape[0]))
-    out[:-1] = levels.T
-    out[-1] = np.inf
+def _padded(levels: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``(n_tables, n + 1)``: the levels with a last column of +inf (the kernels' walk then
+    needs no bound check)."""
+    out = np.empty((levels.shape[0], levels.shape[1] + 1))
+    out[:, :-1] = levels
+    out[:, -1] = np.inf
     return out
 
 
@@ -432,7 +452,7 @@ def _ramp_index(ramp: str, shape: tuple[int, ...]) -> tuple[NDArray[np.int64], i
 
 
 def _check_memory(n_tables: int, bits: int, spec: AsBuilt) -> None:
-    need = n_tables * (2**bits - 1) * 48
+    need = n_tables * (2**bits - 1) * 40
     if need > MAX_TABLE_BYTES:
         raise ValueError(
             f"ramp = {spec.ramp!r} with dnl_rms_lsb = {spec.dnl_rms_lsb!r}: {n_tables} transition "

@@ -559,3 +559,24 @@ def test_switching_one_effect_on_keeps_the_others_draws():
         as_built=AsBuilt(dnl_rms_lsb=0.3, gain_sigma=0.01, offset_sigma_lsb=1.0),
     )
     assert np.array_equal(a.levels, b.levels) and np.array_equal(a.pixel_gain, b.pixel_gain)
+
+
+def test_as_built_from_the_scenario_keys(tmp_path):
+    """The wiring's adapter: ``[chip.adc]`` read by name, the table path taken from the
+    scenario's folder; the schema's defaults give the ideal converter."""
+    from chiptwin.config.schema import Adc
+
+    assert AsBuilt.from_keys(Adc()) == AsBuilt()
+    conv = build_converter(
+        np.random.default_rng(0),
+        (8, 16),
+        bits=13,
+        v_min_V=0.0,
+        v_max_V=1.0,
+        as_built=AsBuilt.from_keys(Adc()),
+    )
+    assert conv.ideal
+    np.savetxt(tmp_path / "ramp.txt", np.arange(3) + 0.5)
+    adc = Adc(bits=2, inl_shape="table", inl_table="ramp.txt", comparator_noise_lsb=0.25)
+    spec = AsBuilt.from_keys(adc, tmp_path)
+    assert spec.inl_table == str(tmp_path / "ramp.txt") and spec.comparator_noise_lsb == 0.25
