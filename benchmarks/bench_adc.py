@@ -10,8 +10,8 @@ rounds in one process (this machine is shared and noisy; medians are reported):
 * ``chip``: one ramp for the chip (the single-slope array's own layout, and the default) with an
   INL bow of 2 LSB and DNL 0.2 LSB rms, plus offset and gain mismatch per converter: the
   transition-table lookup (one table, 390 kB with its LUT);
-* ``chip+noise``: the same with comparator noise 0.5 LSB (one more normal draw per conversion,
-  from its own stream);
+* ``chip+noise``: the same with comparator noise 0.5 LSB (folded into each sample's read-noise
+  draw: no more draws);
 * ``column``: DNL per column ramp (256 tables, 100 MB with their LUTs), the worst case: each
   conversion reads the table of its column, out of cache when neighbouring pixels' codes differ
   (this scene's are uniform over ~3000 codes).
@@ -20,8 +20,8 @@ Scenes (``--scene``): ``uniform`` (default, the worst case for the lookup's cach
 photons per pixel, uniform, so neighbouring pixels' signal codes are unrelated) or ``dark`` (0–200
 photons: a luminescence chip's usual frame, every code within ~100 LSB of the pedestal).
 
-Usage: ``python benchmarks/bench_adc.py [--quick] [--rounds 7] [--frames 4] [--scene dark]``. Prints one line per
-contender with its median time and its ratio to ``ideal``.
+Usage: ``python benchmarks/bench_adc.py [--quick] [--rounds 7] [--frames 4] [--scene dark]``.
+Prints one line per contender with its median time and its ratio to ``ideal``.
 """
 
 from __future__ import annotations
@@ -87,9 +87,6 @@ def chain_run(adc: dict, photons: np.ndarray, n_frames: int) -> Callable[[], Non
 def binned_run(adc: dict, lam: np.ndarray) -> Callable[[], None]:
     def run() -> None:
         n = lam.shape[1]
-        extra = {}
-        if "converter" in adc and adc["converter"].comparator_noise_lsb > 0:
-            extra["comparator_rng"] = chunk_streams(np.random.default_rng(4), n)
         binned_codes(
             chunk_streams(np.random.default_rng(3), n),
             lam,
@@ -97,7 +94,6 @@ def binned_run(adc: dict, lam: np.ndarray) -> Callable[[], None]:
             true_cds=True,
             **SENSOR,
             **adc,
-            **extra,
         )
 
     return run

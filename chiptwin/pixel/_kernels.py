@@ -231,13 +231,27 @@ def _walk(x: float, levels: np.ndarray, k: int, r: int) -> int:
     return hi
 
 
+def sample_noise(read_noise_e, cg_V, gain, noise_lsb, lsb, pixel_gain):
+    """Per-pixel rms of one sample's read noise with the comparator noise folded in. Unit: e⁻.
+
+    The comparator adds ``noise_lsb·z'`` to the continuous code, the read noise
+    ``read_noise_e·z·cg_V/lsb·gain·pixel_gain``; both are white, Gaussian and independent per
+    conversion, so their sum is one Gaussian: ``read_noise_e`` becomes
+    ``√(read_noise_e² + (noise_lsb·lsb/(cg_V·gain·pixel_gain))²)``. The pixel kernels draw that,
+    one normal per sample as today (no extra draw: no stream moves, and the comparator costs
+    nothing); :func:`convert_rows` draws ``z'`` itself for ``Converter.convert``.
+    """
+    return np.sqrt(read_noise_e**2 + (noise_lsb * lsb / (cg_V * gain * pixel_gain)) ** 2)
+
+
 @NJIT
 def convert_rows(volts, out, v_min, lsb, gain, offset, top, conv, cgen):
     """Convert ``volts`` ``(R, n)`` into ``out`` ``(R, n)`` by the converters as built, converter
     ``i`` for column ``i``; comparator draws from ``cgen`` in C order (row-major).
 
-    ``conv = (built, pixel_gain, pixel_offset, table_of_pixel, noise_lsb, levels, lut, base)``
-    (the last three as in :func:`table_code`; ``built`` is True here: the ideal converter is
+    ``conv = (built, pixel_gain, pixel_offset, table_of_pixel, noise_lsb, levels, lut, base,
+    read_e)`` (``levels, lut, base`` as in :func:`table_code`; ``read_e`` unused here; ``built``
+    is True here: the ideal converter is
     :func:`adc_code`, inline in the kernels). Per conversion: the continuous code
     ``x = (v − v_min)/lsb·gain + offset`` (today's arithmetic), then the converter's own
     ``x·pixel_gain[i] + pixel_offset[i]``, then (if ``noise_lsb > 0``) ``+ noise_lsb·z``; then
@@ -249,7 +263,7 @@ def convert_rows(volts, out, v_min, lsb, gain, offset, top, conv, cgen):
     reference-counts the arrays at each inlined call; measured), against a few ns here. The
     comparator draws are made first, into an array, for the same reason.
     """
-    _, c_gain, c_offset, rows, noise, levels, lut, base = conv
+    _, c_gain, c_offset, rows, noise, levels, lut, base, _ = conv
     dither = np.empty(volts.shape if noise > 0.0 else (0, 0))
     for m in range(dither.shape[0]):
         for i in range(dither.shape[1]):
@@ -335,7 +349,7 @@ def table_moments(mu, sd, rows, lut, window, out_mean, out_var):
 def chain_chunk(
     shot_state, gen, photons, gain_map, dark_e, qe, full_well, ktc, read_noise, true_cds,
     read_reset, shot_noise, gauss_min_mean, pedestal, cg_V, v_min, lsb, adc_gain, offset, top,
-    conv, cgen, reset_out, signal_out,
+    conv, reset_out, signal_out,
 ):  # fmt: skip
     """One frame of one chunk of pixels: charge, kTC, read noise, ADC. Codes into the outputs.
 
@@ -350,12 +364,13 @@ def chain_chunk(
     sample as it is formed (:func:`adc_code`, today's arithmetic). As built, the sample voltages
     of each block of :data:`CONVERT_BLOCK` pixels are kept and converted after the block by
     :func:`convert_rows` (the per-pixel arrays sliced to the block): its reset samples
-    ``(M, block)``, then its signal samples, each in C order, the comparator noise (if any) drawn
-    from its own stream ``cgen`` in that order.
+    ``(M, block)``, then its signal samples. Comparator noise comes folded into the read noise
+    (``conv[8]``, see :func:`sample_noise`): nothing more is drawn.
     """
     state = shot_state.copy()  # a private copy: threads never write neighbouring cache lines
     n_samples = signal_out.shape[0]
-    built = conv[0]
+    built, read_e = conv[0], conv[8]
+    folded = read_e.shape[0] > 0
     block = CONVERT_BLOCK if built else 0
     v_reset = np.empty((n_samples if read_reset else 0, block))
     v_signal = np.empty((n_samples, block))
@@ -367,12 +382,13 @@ def chain_chunk(
             count = float(poisson(state, lam))
         collected = min(count, full_well)
         k_signal = ktc * gen.standard_normal() if ktc > 0.0 else 0.0
+        rn = read_e[i] if folded else read_noise
         if read_reset:
             k_reset = k_signal
             if ktc > 0.0 and not true_cds:
                 k_reset = ktc * gen.standard_normal()
             for m in range(n_samples):
-                e = k_reset + read_noise * gen.standard_normal()
+                e = k_reset + rn * gen.standard_normal()
                 if built:
                     v_reset[m, i % block] = pedestal + e * cg_V
                 else:
@@ -380,7 +396,7 @@ def chain_chunk(
                         pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top
                     )
         for m in range(n_samples):
-            e = (collected + k_signal) + read_noise * gen.standard_normal()
+            e = (collected + k_signal) + rn * gen.standard_normal()
             if built:
                 v_signal[m, i % block] = pedestal + e * cg_V
             else:
@@ -389,15 +405,15 @@ def chain_chunk(
             lo, hi = i - i % block, i + 1  # a block's samples: reset ones, then signal ones
             part = (True, conv[1][lo:hi], conv[2][lo:hi], conv[3][lo:hi], *conv[4:])
             consts = (v_min, lsb, adc_gain, offset, top)
-            convert_rows(v_reset[:, : hi - lo], reset_out[:, lo:hi], *consts, part, cgen)
-            convert_rows(v_signal[:, : hi - lo], signal_out[:, lo:hi], *consts, part, cgen)
+            convert_rows(v_reset[:, : hi - lo], reset_out[:, lo:hi], *consts, part, gen)
+            convert_rows(v_signal[:, : hi - lo], signal_out[:, lo:hi], *consts, part, gen)
     shot_state[:] = state
 
 
 @NJIT
 def frame_codes(
     gen, mean_e, counted_pixels, counted_e, full_well, ktc, read_noise, true_cds, pedestal, cg_V,
-    v_min, lsb, adc_gain, offset, top, gauss_min_mean, conv, cgen, codes_out,
+    v_min, lsb, adc_gain, offset, top, gauss_min_mean, conv, codes_out,
 ):  # fmt: skip
     """Frames of the ``binned`` level, one after another, from the NumPy ``Generator`` ``gen``.
 
@@ -409,14 +425,14 @@ def frame_codes(
     ``true_cds``) the reset kTC draw of every pixel; the ``(M, n)`` reset samples' read noise, the
     ``(M, n)`` signal samples' read noise. Each sample is formed and converted as in
     ``read_out``, ``to_volts`` and ``adc_convert`` (the ideal ``conv``), or as built by
-    :func:`convert_rows`, one sample row of ``n`` pixels at a time, whose comparator draws come
-    from ``cgen`` in the order of the conversions (frame, reset then signal samples,
-    sample-major, pixel-minor);
+    :func:`convert_rows`, one sample row of ``n`` pixels at a time, the comparator noise folded
+    into the read noise (``conv[8]``, see :func:`sample_noise`): nothing more is drawn.
     ``codes_out`` is ``(n_frames, 2M, n)``, the M reset codes first.
     """
     n_frames, n = mean_e.shape
     m = codes_out.shape[1] // 2
-    built = conv[0]
+    built, read_e = conv[0], conv[8]
+    folded = read_e.shape[0] > 0
     row = np.empty((1, n if built else 0))
     collected = np.empty(n)
     k_signal = np.zeros(n)
@@ -433,7 +449,8 @@ def frame_codes(
                 k_reset[i] = k_signal[i] if true_cds else ktc * gen.standard_normal()
         for j in range(m):
             for i in range(n):
-                e = k_reset[i] + read_noise * gen.standard_normal()
+                rn = read_e[i] if folded else read_noise
+                e = k_reset[i] + rn * gen.standard_normal()
                 volts = pedestal + e * cg_V
                 if built:
                     row[0, i] = volts
@@ -441,11 +458,12 @@ def frame_codes(
                     codes_out[f, j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
             if built:
                 convert_rows(
-                    row, codes_out[f, j : j + 1], v_min, lsb, adc_gain, offset, top, conv, cgen
+                    row, codes_out[f, j : j + 1], v_min, lsb, adc_gain, offset, top, conv, gen
                 )
         for j in range(m):
             for i in range(n):
-                e = (collected[i] + k_signal[i]) + read_noise * gen.standard_normal()
+                rn = read_e[i] if folded else read_noise
+                e = (collected[i] + k_signal[i]) + rn * gen.standard_normal()
                 volts = pedestal + e * cg_V
                 if built:
                     row[0, i] = volts
@@ -461,5 +479,5 @@ def frame_codes(
                     offset,
                     top,
                     conv,
-                    cgen,
+                    gen,
                 )

@@ -83,17 +83,6 @@ def _streams(
     return [_child(s, 0) for s in seeds], [_child(s, 1) for s in seeds]
 
 
-def comparator_streams(
-    seeds: list[np.random.SeedSequence], converter: Converter
-) -> list[np.random.Generator]:
-    """Each chunk's comparator-noise stream: the third child of its SeedSequence, beside the
-    shot and noise streams, so comparator noise shifts no other draw. Without comparator noise
-    nothing is made (and nothing drawn)."""
-    if converter.comparator_noise_lsb == 0.0:
-        return [converter.comparator_stream(None)] * len(seeds)
-    return [_child(s, 2) for s in seeds]
-
-
 def _shot_states(shot: list[np.random.Generator]) -> NDArray[np.uint64]:
     """The SFC64 states ``(n_chunks, 4)`` the kernel advances in place."""
     return np.array([g.bit_generator.state["state"]["state"] for g in shot], dtype=np.uint64)
@@ -143,8 +132,7 @@ class _Plan(NamedTuple):
     """What the run needs besides the data: kernel constants and sizes, all checked."""
 
     consts: tuple
-    convs: list[tuple]  # the converter of each chunk (_kernels.convert's ``conv``)
-    cgens: list[np.random.Generator]  # each chunk's comparator stream
+    convs: list[tuple]  # the converter of each chunk (Converter.kernel_conv)
     chunk: int
     n_samples: int
     n_reset: int
@@ -195,7 +183,7 @@ def _run_frame(
         sl = slice(c * chunk, (c + 1) * chunk)
         _kernels.chain_chunk(
             shot[c], noise[c], photons[sl], gain[sl], dark[sl], *plan.consts,
-            plan.convs[c], plan.cgens[c], reset2d[:, sl], signal2d[:, sl],
+            plan.convs[c], reset2d[:, sl], signal2d[:, sl],
         )  # fmt: skip
 
     if pool is None:
@@ -289,8 +277,9 @@ def sensor_chain(
         ``converter``.
     converter : Converter, optional
         The converters as built (:func:`~chiptwin.pixel.converter.build_converter`, one per
-        pixel of ``S``), instead of the keywords above. Its comparator noise is drawn from a
-        third stream of each chunk (:func:`comparator_streams`): the other draws do not move.
+        pixel of ``S``), instead of the keywords above. Its comparator noise is folded into each
+        sample's read-noise draw (one Gaussian of the summed variance,
+        :func:`chiptwin.pixel._kernels.sample_noise`): no stream moves, nothing more is drawn.
         An ideal converter gives the keywords' codes bit for bit.
     shot_noise : {"poisson", "gaussian"}
         ``"poisson"``: exact, NumPy's sampler. ``"gaussian"``: a named approximation, the count
@@ -340,12 +329,12 @@ def sensor_chain(
     conv.check_pixels(first.size)
     seeds = _chunk_seeds(rng, max(first.size, 1), chunk)
     shot, noise = _streams(seeds)
-    convs = [conv.kernel_conv(c * chunk, (c + 1) * chunk) for c in range(len(seeds))]
+    fold = (sensor[3], readout[1])  # read noise (e⁻) and conversion gain (V/e⁻), checked
+    convs = [conv.kernel_conv(c * chunk, (c + 1) * chunk, fold) for c in range(len(seeds))]
     n_reset = m if read_reset else 0
     plan = _Plan(
         sensor + readout,
         convs,
-        comparator_streams(seeds, conv),
         chunk,
         m,
         n_reset,

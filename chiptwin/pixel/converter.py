@@ -30,6 +30,11 @@ Conventions (REFERENCE §8; IEEE Std 1241):
   without DNL every converter shares one table.
 * **Fixed per chip**: DNL, offsets and gains are drawn once by :func:`build_converter` from a
   passed Generator (as the PRNU/DSNU maps), each effect from its own child stream.
+* **Comparator noise** is white, Gaussian and independent per conversion, like the read noise
+  of each sample: in the pixel kernels (``sensor_chain``, ``binned_codes``) the two are one
+  draw of the summed variance (:func:`~chiptwin.pixel._kernels.sample_noise`), so comparator
+  noise draws nothing more, moves no stream and costs nothing; :meth:`Converter.convert` (no
+  read noise there) draws it from the ``rng`` it is given.
 """
 
 from __future__ import annotations
@@ -326,12 +331,28 @@ class Converter:
             2.0**self.bits - 1.0,
         )
 
-    def kernel_conv(self, lo: int = 0, hi: int | None = None) -> tuple:
-        """The kernels' ``conv`` tuple for converters ``lo … hi − 1`` (a chunk of pixels)."""
+    def kernel_conv(
+        self, lo: int = 0, hi: int | None = None, fold: tuple[float, float] | None = None
+    ) -> tuple:
+        """The kernels' ``conv`` tuple for converters ``lo … hi − 1`` (a chunk of pixels).
+
+        ``(built, pixel_gain, pixel_offset, table_of_pixel, noise_lsb, levels, lut, base,
+        read_e)``. With ``fold = (read_noise_e, cg_V)`` (the pixel kernels) comparator noise is
+        folded into a per-pixel read noise ``read_e``
+        (:func:`~chiptwin.pixel._kernels.sample_noise`) and ``noise_lsb`` is 0; otherwise
+        ``read_e`` is empty and the noise is drawn per conversion.
+        """
         c = self._conv  # type: ignore[attr-defined]
         if not c[0]:
-            return c
-        return (True, c[1][lo:hi], c[2][lo:hi], c[3][lo:hi], *c[4:])
+            return (*c, _EMPTY_F)
+        noise, read_e = c[4], _EMPTY_F
+        if fold is not None and noise > 0.0:
+            pixel_gain = c[1][lo:hi]
+            read_e = _kernels.sample_noise(
+                fold[0], fold[1], 1.0 + self.gain_error, noise, self.lsb_V, pixel_gain
+            )
+            noise = 0.0
+        return (True, c[1][lo:hi], c[2][lo:hi], c[3][lo:hi], noise, *c[5:], read_e)
 
     def check_pixels(self, n_pixels: int, name: str = "converter") -> None:
         """Refuse a converter that is not ideal and describes another number of pixels."""
@@ -341,9 +362,10 @@ class Converter:
             )
 
     def comparator_stream(
-        self, rng: np.random.Generator | None, name: str = "comparator_rng"
+        self, rng: np.random.Generator | None, name: str = "rng"
     ) -> np.random.Generator:
-        """The stream comparator noise is drawn from: ``rng``, required when there is noise."""
+        """The stream :meth:`convert` draws comparator noise from: ``rng``, required when there
+        is noise."""
         if self.comparator_noise_lsb > 0.0:
             if not isinstance(rng, np.random.Generator):
                 raise ValueError(

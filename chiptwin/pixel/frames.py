@@ -89,7 +89,6 @@ def binned_codes(
     offset_lsb: float | None = None,
     gain_error: float | None = None,
     converter: Converter | None = None,
-    comparator_rng: np.random.Generator | Sequence[np.random.Generator] | None = None,
     counted_pixels: ArrayLike = (),
     counted_e: ArrayLike | None = None,
     threads: int | None = None,
@@ -115,12 +114,9 @@ def binned_codes(
         0); required unless ``converter`` is given, and not with it.
     converter : Converter, optional
         The converters as built (:func:`~chiptwin.pixel.converter.build_converter`, one per
-        pixel). An ideal one gives the keywords' codes bit for bit and draws nothing more.
-    comparator_rng : numpy.random.Generator, or a sequence of them
-        The comparator noise's own stream (required when the converter has comparator noise,
-        unused otherwise), so that it shifts none of ``rng``'s draws: a Generator when ``rng``
-        is one, else one per chunk (:func:`chunk_streams` of a stream of its own). Drawn in the
-        order of the conversions (:func:`chiptwin.pixel._kernels.frame_codes`).
+        pixel). An ideal one gives the keywords' codes bit for bit. Comparator noise is folded
+        into each sample's read-noise draw (one Gaussian of the summed variance,
+        :func:`chiptwin.pixel._kernels.sample_noise`): it draws nothing more and moves no stream.
     counted_pixels : array_like of int (n_counted,), optional
         Pixels (indices along ``n_pixels``) whose collected charge was counted another way (the
         ``events`` photon level). Their Poisson draws are still made, and then replaced, as
@@ -154,23 +150,23 @@ def binned_codes(
     if shot_noise not in SHOT_MIN_MEAN_E:
         raise ValueError(f"shot_noise = {shot_noise!r}: must be one of {sorted(SHOT_MIN_MEAN_E)}")
     consts = (fw, ktc, read, bool(true_cds), *readout, SHOT_MIN_MEAN_E[shot_noise])
+    fold = (read, readout[1])  # read noise (e⁻) and conversion gain (V/e⁻): comparator folded
     if isinstance(rng, np.random.Generator):
-        cgen = conv.comparator_stream(comparator_rng)
-        _kernels.frame_codes(rng, lam, pixels, counted, *consts, conv.kernel_conv(), cgen, codes)
+        _kernels.frame_codes(rng, lam, pixels, counted, *consts, conv.kernel_conv(0, None, fold),
+                             codes)
         return codes
     streams = list(rng)
     n_chunks = max(1, -(-lam.shape[1] // CHUNK_PIXELS))
     if len(streams) != n_chunks:
         raise ValueError(f"{len(streams)} streams for {lam.shape[1]} pixels: must be {n_chunks}, "
                          f"one per chunk of {CHUNK_PIXELS}")
-    cgens = _comparator_chunks(conv, comparator_rng, n_chunks)
 
     def draw(c: int) -> None:
         lo, hi = c * CHUNK_PIXELS, min((c + 1) * CHUNK_PIXELS, lam.shape[1])
         mine = (pixels >= lo) & (pixels < hi)
         _kernels.frame_codes(streams[c], lam[:, lo:hi], pixels[mine] - lo,
                              np.ascontiguousarray(counted[:, mine]), *consts,
-                             conv.kernel_conv(lo, hi), cgens[c], codes[:, :, lo:hi])
+                             conv.kernel_conv(lo, hi, fold), codes[:, :, lo:hi])
 
     threads = default_threads() if threads is None else int(threads)
     if n_chunks == 1 or threads <= 1:
@@ -179,21 +175,6 @@ def binned_codes(
     else:
         list(_pool(threads).map(draw, range(n_chunks)))
     return codes
-
-
-def _comparator_chunks(conv: Converter, comparator_rng: object, n_chunks: int
-                       ) -> list[np.random.Generator]:
-    """One comparator stream per chunk (checked), or the no-draw placeholder without noise."""
-    if conv.comparator_noise_lsb == 0.0:
-        return [conv.comparator_stream(None)] * n_chunks
-    if isinstance(comparator_rng, np.random.Generator) or comparator_rng is None:
-        raise ValueError(f"comparator_rng = {comparator_rng!r}: with chunk streams it must be "
-                         f"{n_chunks} Generators, one per chunk (chunk_streams)")
-    gens = list(comparator_rng)  # type: ignore[call-overload]
-    if len(gens) != n_chunks:
-        raise ValueError(f"comparator_rng has {len(gens)} streams: must be {n_chunks}, one per "
-                         f"chunk of {CHUNK_PIXELS}")
-    return [conv.comparator_stream(g) for g in gens]
 
 
 def _counted(pixels: ArrayLike, counted_e: ArrayLike | None, shape: tuple[int, int]

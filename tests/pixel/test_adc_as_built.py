@@ -347,22 +347,27 @@ def test_without_noise_the_error_is_the_deterministic_rounding():
     assert abs(err.var() - quantization_var_of_mean(8, 0.0)) < 4 * (1 / 12) * np.sqrt(2 / 20_000)
 
 
-def test_binned_codes_dither_the_pedestal_with_the_comparator_stream():
-    """No charge, no read noise: the codes are the comparator's dither of the pedestal; its own
-    stream, so the pixel stream ends where the ideal converter leaves it."""
-    level = 100.3
-    kw = dict(_frames_kw(), ktc_e=0.0, read_noise_e=0.0, n_samples=8, pedestal_V=level * LSB)
-    conv = Converter(BITS, 0.0, 1.0, comparator_noise_lsb=0.6, shape=(50,))
+@pytest.mark.parametrize("read_e", [0.0, 6.0])
+def test_binned_codes_fold_the_comparator_noise_into_the_read_noise(read_e):
+    """No charge: the codes are the pedestal dithered by read and comparator noise, whose
+    variances add (one draw per sample of the summed variance, so the pixel stream ends where
+    the ideal converter leaves it); the mean of the codes is unbiased (the dither law) and
+    their variance is σ_read² + σ_comp² + 1/12 (σ ≥ 0.5 LSB), per converter gain included."""
+    level, sigma, n = 100.3, 0.6, 50
+    kw = dict(_frames_kw(), ktc_e=0.0, read_noise_e=read_e, n_samples=8, pedestal_V=level * LSB)
+    gains = 1.0 + 0.02 * np.random.default_rng(17).standard_normal(n)
+    conv = Converter(BITS, 0.0, 1.0, comparator_noise_lsb=sigma, pixel_gain=gains, shape=(n,))
     r0, r1 = np.random.default_rng(18), np.random.default_rng(18)
-    codes = binned_codes(
-        r0, np.zeros((400, 50)), converter=conv, comparator_rng=np.random.default_rng(19), **kw
-    )
-    binned_codes(r1, np.zeros((400, 50)), bits=BITS, v_min_V=0.0, v_max_V=1.0, **kw)
+    codes = binned_codes(r0, np.zeros((400, n)), converter=conv, **kw)[:, 8:].reshape(-1, n)
+    codes = codes.astype(float)
+    binned_codes(r1, np.zeros((400, n)), bits=BITS, v_min_V=0.0, v_max_V=1.0, **kw)
     assert r0.bit_generator.state == r1.bit_generator.state
-    err = codes[:, 8:].astype(float).mean() - level
-    assert abs(err) < 4 * np.sqrt(0.6**2 + 1 / 12) / np.sqrt(codes[:, 8:].size)
-    with pytest.raises(ValueError, match="comparator_rng"):
-        binned_codes(r0, np.zeros((2, 50)), converter=conv, **kw)
+    read_lsb = read_e * kw["conversion_gain_uV_per_e"] * 1e-6 / LSB * gains
+    want_var = read_lsb**2 + sigma**2 + 1 / 12
+    err = codes.mean(axis=0) - level * gains
+    assert np.all(np.abs(err) < 4 * np.sqrt(want_var / 3200))
+    ratio = codes.var(axis=0) / want_var
+    assert abs(ratio.mean() - 1) < 4 * np.sqrt(2 / 3200 / n)
 
 
 # --- threads and streams ----------------------------------------------------------------------
@@ -411,7 +416,6 @@ def test_binned_codes_as_built_does_not_depend_on_the_thread_count():
             chunk_streams(np.random.default_rng(24), n),
             lam,
             converter=conv,
-            comparator_rng=chunk_streams(np.random.default_rng(25), n),
             threads=threads,
             **_frames_kw(),
         )
@@ -540,7 +544,6 @@ def test_converter_and_keywords_are_exclusive():
             np.random.default_rng(0),
             np.zeros((1, 3)),
             converter=Converter(12, 0.0, 1.0, comparator_noise_lsb=0.1, shape=(4,)),
-            comparator_rng=np.random.default_rng(1),
             **_frames_kw(),
         )
 
