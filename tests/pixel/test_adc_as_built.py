@@ -425,7 +425,7 @@ def test_binned_codes_as_built_does_not_depend_on_the_thread_count():
 
 def test_comparator_noise_shifts_no_other_draw():
     """A vanishing comparator noise leaves every code of the noiseless converter (no ties in a
-    continuous scene), so its draws come from their own stream."""
+    continuous scene): folded into the read-noise draws, it draws nothing more."""
     photons = np.random.default_rng(26).uniform(0, 2e4, (10, 30))
     quiet = build_converter(
         np.random.default_rng(0),
