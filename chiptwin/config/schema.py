@@ -207,6 +207,37 @@ class Adc:
     range_below_full_well_ok: bool = param(
         False, kind=bool, doc="true when the ADC range is meant to clip before the full well"
     )
+    # the converter as built (chiptwin.pixel.converter); every effect 0 = the ideal converter
+    comparator_noise_lsb: float = param(
+        0.0, lo=0.0, hi=256.0,
+        doc="LSB rms, input-referred comparator/ramp noise, a fresh draw per conversion; "
+            "typical a few tenths to 1 LSB (issue 17); ≤ 256 LSB: beyond, 8 of the bits are "
+            "noise and the converter is a noise source, not an ADC")
+    inl_max_lsb: float = param(
+        0.0, lo=-1024.0, hi=1024.0,
+        doc="LSB, signed peak of the ramp's bow (end-point INL), shared by the converters on a "
+            "ramp; single-slope ramps: a few LSB (REFERENCE §8); ±1024 LSB, an eighth of a "
+            "13-bit range (a steeper bow reverses transitions and is refused for the bits)")
+    inl_shape: str = param("quadratic", choices=("quadratic", "cubic", "table"),
+                           doc="the bow 4u(1−u), the S-curve u(1−u)(1−2u), or inl_table")
+    inl_table: str = param(
+        "", kind=str,
+        doc="file of the ramp's 2^bits − 1 transition levels (LSB of the ideal converter; "
+            "text or .npy), non-decreasing; only with inl_shape = 'table'; '' = none")
+    dnl_rms_lsb: float = param(
+        0.0, lo=0.0, hi=1.0,
+        doc="LSB rms spread of the code widths, fixed per chip, widths clipped at 0 (missing "
+            "codes); ≤ 1 LSB: beyond, a sixth of the codes are missing and the bits mean little")
+    offset_sigma_lsb: float = param(
+        0.0, lo=0.0, hi=1024.0,
+        doc="LSB rms per-converter offset mismatch, fixed per chip; ≤ 1024 LSB, an eighth of a "
+            "13-bit range")
+    gain_sigma: float = param(
+        0.0, lo=0.0, hi=0.1,
+        doc="fractional rms per-converter gain mismatch, fixed per chip; ≤ 0.1 so 1 + σz stays "
+            "> 0 over any chip's draws (z > −10)")
+    ramp: str = param("chip", choices=("chip", "column", "pixel"),
+                      doc="converters sharing a ramp (its INL and DNL): all, a column's, none")
 
     @property
     def conversion_time_s(self) -> float:

@@ -19,7 +19,9 @@ The readout modelled, per frame (REFERENCE §3–4; El Gamal & Eltoukhy, IEEE Ci
 * Polarity (a choice): the ADC input rises with collected charge (``to_volts``: pedestal plus
   charge × conversion gain); the differential readout inverts the falling sense-node voltage.
 * ADC: ``LSB = (v_max − v_min)/2^bits``, round to nearest (unbiased), clipped to
-  ``[0, 2^bits − 1]``, with offset and gain error (:mod:`chiptwin.pixel.adc`).
+  ``[0, 2^bits − 1]``, with offset and gain error (:mod:`chiptwin.pixel.adc`); as built
+  (:mod:`chiptwin.pixel.converter`): comparator noise, INL and DNL as transition levels per ramp,
+  per-converter offset and gain mismatch, all 0 by default (then today's codes, bit for bit).
 
 The DSP, not this package, forms ``mean(signal) − mean(reset)``. Photon-statistics levels:
 ``expected`` (:func:`expected_frame`, :func:`adc_expected`: moments, no sampling) and ``binned``
@@ -38,6 +40,13 @@ from chiptwin.pixel.adc import (
     to_volts,
 )
 from chiptwin.pixel.chain import sensor_chain
+from chiptwin.pixel.converter import (
+    AsBuilt,
+    Converter,
+    build_converter,
+    check_transition_table,
+    load_transition_table,
+)
 from chiptwin.pixel.frames import CHUNK_PIXELS, binned_codes, chunk_streams
 from chiptwin.pixel.sensor import (
     clipped_poisson_moments,
@@ -53,6 +62,11 @@ from chiptwin.pixel.sensor import (
 
 __all__ = [
     "CHUNK_PIXELS",
+    "AsBuilt",
+    "Converter",
+    "build_converter",
+    "check_transition_table",
+    "load_transition_table",
     "adc_convert",
     "adc_expected",
     "binned_codes",

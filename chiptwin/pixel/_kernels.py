@@ -177,11 +177,179 @@ def adc_code(volts: float, v_min: float, lsb: float, gain: float, offset: float,
     return int(x)
 
 
+#: Pixels whose samples :func:`chain_chunk` converts together as built: the voltages of a block
+#: (``2M × 256 × 8 B``, 16 kB at M = 4) stay in the L1 cache; a whole chunk's went to memory and
+#: back (≈ 15 ns a conversion more, measured).
+CONVERT_BLOCK: int = 256
+
+#: Cells of the search LUT per LSB: a cell holds at most one transition unless a code is
+#: narrower than 1/CELLS_PER_LSB LSB (then the search walks the levels). A power of two.
+CELLS_PER_LSB: float = 2.0
+
+
+@NJIT
+def table_code(x: float, levels: np.ndarray, lut: np.ndarray, base: int, r: int) -> int:
+    """Code of the continuous input ``x`` (not NaN) on ramp ``r`` of the levels ``levels``.
+
+    ``levels[r]`` holds the ``n`` non-decreasing levels of ramp ``r`` and a last column of +inf.
+    Code ``k`` covers ``levels[r, k−1] ≤ x < levels[r, k]``: the code is
+    ``#{levels ≤ x}``. On a level exactly (``lo = #{< x}`` < ``hi = #{≤ x}``) it is ``lo`` if
+    ``lo`` is even, else ``hi``: half to even, so the ideal table ``k + 0.5`` gives
+    ``numpy.rint`` bit for bit.
+
+    The LUT ``lut[r, c] = (level, below)`` (each ramp's cells together: a converter's samples,
+    spread by noise over some codes, read one stretch of memory; level-major storage, which
+    interleaves the ramps, ran 5–10× slower with a table per column, measured): cell ``c`` is
+    ``[(base + c)/CELLS_PER_LSB, (base + c + 1)/CELLS_PER_LSB)``, ``below`` counts the levels
+    under it and ``level`` is its one level (+inf if none, NaN if several: then the levels are
+    walked). The first and last cells lie beyond every level; ``x`` is clamped into them
+    (branch-free) and scaled by a power of two and floored, which is exact. The kernels' loop
+    (:func:`_table_rows`) writes this out.
+    """
+    xc = min(max(x, base / CELLS_PER_LSB), (base + lut.shape[1] - 1) / CELLS_PER_LSB)
+    c = int(math.floor(xc * CELLS_PER_LSB)) - base
+    t = lut[r, c, 0]
+    k = np.int64(lut[r, c, 1])
+    if t == t:  # at most one level in the cell: one comparison, no search
+        return k + int(xc > t) + int(xc == t) * (k & 1)
+    return _walk(xc, levels, k, r)
+
+
+@NJIT
+def _walk(x: float, levels: np.ndarray, k: int, r: int) -> int:
+    """:func:`table_code` in a cell of several levels: walk from the ``k`` below it. Not
+    inlined: the loops, rarely run, would slow the one-comparison path threefold (measured)."""
+    hi = k
+    while levels[r, hi] <= x:
+        hi += 1
+    if levels[r, hi - 1] == x:  # on a level: half to even
+        lo = hi - 1
+        while lo > 0 and levels[r, lo - 1] == x:
+            lo -= 1
+        if lo % 2 == 0:
+            return lo
+    return hi
+
+
+def sample_noise(read_noise_e, cg_V, gain, noise_lsb, lsb, pixel_gain):
+    """Per-pixel rms of one sample's read noise with the comparator noise folded in. Unit: e⁻.
+
+    The comparator adds ``noise_lsb·z'`` to the continuous code, the read noise
+    ``read_noise_e·z·cg_V/lsb·gain·pixel_gain``; both are white, Gaussian and independent per
+    conversion, so their sum is one Gaussian: ``read_noise_e`` becomes
+    ``√(read_noise_e² + (noise_lsb·lsb/(cg_V·gain·pixel_gain))²)``. The pixel kernels draw that,
+    one normal per sample as today (no extra draw: no stream moves, and the comparator costs
+    nothing); :func:`convert_rows` draws ``z'`` itself for ``Converter.convert``.
+    """
+    return np.sqrt(read_noise_e**2 + (noise_lsb * lsb / (cg_V * gain * pixel_gain)) ** 2)
+
+
+@NJIT
+def convert_rows(volts, out, v_min, lsb, gain, offset, top, conv, cgen):
+    """Convert ``volts`` ``(R, n)`` into ``out`` ``(R, n)`` by the converters as built, converter
+    ``i`` for column ``i``; comparator draws from ``cgen`` in C order (row-major).
+
+    ``conv = (built, pixel_gain, pixel_offset, table_of_pixel, noise_lsb, levels, lut, base,
+    read_e)`` (``levels, lut, base`` as in :func:`table_code`; ``read_e`` unused here; ``built``
+    is True here: the ideal converter is
+    :func:`adc_code`, inline in the kernels). Per conversion: the continuous code
+    ``x = (v − v_min)/lsb·gain + offset`` (today's arithmetic), then the converter's own
+    ``x·pixel_gain[i] + pixel_offset[i]``, then (if ``noise_lsb > 0``) ``+ noise_lsb·z``; then
+    :func:`table_code` on ramp ``table_of_pixel[i]``, or round and clip as :func:`adc_code` when
+    there is no table (``levels`` with 0 rows).
+
+    A kernel of its own, called once per block of conversions: the lookup inlined at every
+    sample of the pixel loops, with the tables passed down, cost 30–50 ns a conversion (numba
+    reference-counts the arrays at each inlined call; measured), against a few ns here. The
+    comparator draws are made first, into an array, for the same reason.
+    """
+    _, c_gain, c_offset, rows, noise, levels, lut, base, _ = conv
+    dither = np.empty(volts.shape if noise > 0.0 else (0, 0))
+    for m in range(dither.shape[0]):
+        for i in range(dither.shape[1]):
+            dither[m, i] = noise * cgen.standard_normal()
+    args = (volts, out, v_min, lsb, gain, offset, c_gain, c_offset, dither)
+    if levels.shape[0] > 0:
+        _table_rows(*args, rows, levels, lut, base)
+    else:
+        _round_rows(*args, top)
+
+
+@NJIT
+def _round_rows(volts, out, v_min, lsb, gain, offset, c_gain, c_offset, dither, top):
+    """:func:`convert_rows` without a table: mismatch and dither, then round and clip."""
+    noisy = dither.shape[0] > 0
+    for m in range(volts.shape[0]):
+        for i in range(volts.shape[1]):
+            x = (volts[m, i] - v_min) / lsb * gain + offset
+            x = x * c_gain[i] + c_offset[i]
+            if noisy:
+                x = x + dither[m, i]
+            out[m, i] = adc_code(x, 0.0, 1.0, 1.0, 0.0, top)
+
+
+@NJIT
+def _table_rows(volts, out, v_min, lsb, gain, offset, c_gain, c_offset, dither, rows, levels,
+                lut, base):  # fmt: skip
+    """:func:`convert_rows` with a table: :func:`table_code` written out (its arrays passed to an
+    inlined call at every conversion, or a generator call anywhere in this loop, cost 10–25 ns
+    a conversion more; measured)."""
+    noisy = dither.shape[0] > 0
+    x_lo, x_hi = base / CELLS_PER_LSB, (base + lut.shape[1] - 1) / CELLS_PER_LSB
+    for m in range(volts.shape[0]):
+        for i in range(volts.shape[1]):
+            x = (volts[m, i] - v_min) / lsb * gain + offset
+            x = x * c_gain[i] + c_offset[i]
+            if noisy:
+                x = x + dither[m, i]
+            r = rows[i]
+            xc = min(max(x, x_lo), x_hi)
+            c = int(math.floor(xc * CELLS_PER_LSB)) - base
+            t = lut[r, c, 0]
+            k = np.int64(lut[r, c, 1])
+            if t == t:
+                out[m, i] = k + int(xc > t) + int(xc == t) * (k & 1)
+            else:
+                out[m, i] = _walk(xc, levels, k, r)
+
+
+@NJIT
+def table_moments(mu, sd, rows, lut, window, out_mean, out_var):
+    """Mean and variance of the code for ``X ~ N(mu[i], sd[i]²)`` on the levels of ramp
+    ``rows[i]``; ``lut = (levels, lut, base)`` as in :func:`table_code`.
+
+    ``P(code = k) = S(levels[k−1]) − S(levels[k])`` with ``S(t) = P(X ≥ t)``, summed over the
+    codes whose levels lie within ``± window·sd`` (beyond: ``S = 1`` below, ``0`` above), centred
+    on the code of ``mu`` for precision. ``sd = 0``: the code of ``mu`` (:func:`table_code`).
+    """
+    levels = lut[0]
+    n = levels.shape[1] - 1
+    for i in range(mu.size):
+        r, m, s = rows[i], mu[i], sd[i]
+        centre = table_code(m, levels, lut[1], lut[2], r)
+        if s == 0.0:
+            out_mean[i], out_var[i] = float(centre), 0.0
+            continue
+        j0 = np.searchsorted(levels[r, :n], m - window * s, side="left")
+        j1 = np.searchsorted(levels[r, :n], m + window * s, side="right")
+        s_prev, m1, m2 = 1.0, 0.0, 0.0
+        scale = 1.0 / (s * math.sqrt(2.0))
+        for k in range(j0, j1 + 1):
+            s_next = 0.5 * math.erfc((levels[r, k] - m) * scale) if k < j1 else 0.0
+            p = s_prev - s_next
+            d = float(k - centre)
+            m1 += p * d
+            m2 += p * d * d
+            s_prev = s_next
+        out_mean[i] = centre + m1
+        out_var[i] = max(m2 - m1 * m1, 0.0)
+
+
 @NJIT
 def chain_chunk(
     shot_state, gen, photons, gain_map, dark_e, qe, full_well, ktc, read_noise, true_cds,
     read_reset, shot_noise, gauss_min_mean, pedestal, cg_V, v_min, lsb, adc_gain, offset, top,
-    reset_out, signal_out,
+    conv, reset_out, signal_out,
 ):  # fmt: skip
     """One frame of one chunk of pixels: charge, kTC, read noise, ADC. Codes into the outputs.
 
@@ -192,10 +360,20 @@ def chain_chunk(
     ``ktc > 0``, ``read_reset`` and not ``true_cds``), the M reset samples' read noise (if
     ``read_reset``), the M signal samples' read noise. ``reset_out`` and ``signal_out`` are
     ``(M, n)`` (``reset_out`` unused unless ``read_reset``). Electrons and volts are formed as in
-    ``sample_frame`` and ``to_volts``.
+    ``sample_frame`` and ``to_volts``. The ideal converter (``conv[0]`` False) converts each
+    sample as it is formed (:func:`adc_code`, today's arithmetic). As built, the sample voltages
+    of each block of :data:`CONVERT_BLOCK` pixels are kept and converted after the block by
+    :func:`convert_rows` (the per-pixel arrays sliced to the block): its reset samples
+    ``(M, block)``, then its signal samples. Comparator noise comes folded into the read noise
+    (``conv[8]``, see :func:`sample_noise`): nothing more is drawn.
     """
     state = shot_state.copy()  # a private copy: threads never write neighbouring cache lines
     n_samples = signal_out.shape[0]
+    built, read_e = conv[0], conv[8]
+    folded = read_e.shape[0] > 0
+    block = CONVERT_BLOCK if built else 0
+    v_reset = np.empty((n_samples if read_reset else 0, block))
+    v_signal = np.empty((n_samples, block))
     for i in range(photons.size):
         lam = qe * gain_map[i] * photons[i] + dark_e[i]
         if shot_noise == SHOT_GAUSSIAN:
@@ -204,23 +382,38 @@ def chain_chunk(
             count = float(poisson(state, lam))
         collected = min(count, full_well)
         k_signal = ktc * gen.standard_normal() if ktc > 0.0 else 0.0
+        rn = read_e[i] if folded else read_noise
         if read_reset:
             k_reset = k_signal
             if ktc > 0.0 and not true_cds:
                 k_reset = ktc * gen.standard_normal()
             for m in range(n_samples):
-                e = k_reset + read_noise * gen.standard_normal()
-                reset_out[m, i] = adc_code(pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top)
+                e = k_reset + rn * gen.standard_normal()
+                if built:
+                    v_reset[m, i % block] = pedestal + e * cg_V
+                else:
+                    reset_out[m, i] = adc_code(
+                        pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top
+                    )
         for m in range(n_samples):
-            e = (collected + k_signal) + read_noise * gen.standard_normal()
-            signal_out[m, i] = adc_code(pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top)
+            e = (collected + k_signal) + rn * gen.standard_normal()
+            if built:
+                v_signal[m, i % block] = pedestal + e * cg_V
+            else:
+                signal_out[m, i] = adc_code(pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top)
+        if built and (i % block == block - 1 or i == photons.size - 1):
+            lo, hi = i - i % block, i + 1  # a block's samples: reset ones, then signal ones
+            part = (True, conv[1][lo:hi], conv[2][lo:hi], conv[3][lo:hi], *conv[4:])
+            consts = (v_min, lsb, adc_gain, offset, top)
+            convert_rows(v_reset[:, : hi - lo], reset_out[:, lo:hi], *consts, part, gen)
+            convert_rows(v_signal[:, : hi - lo], signal_out[:, lo:hi], *consts, part, gen)
     shot_state[:] = state
 
 
 @NJIT
 def frame_codes(
     gen, mean_e, counted_pixels, counted_e, full_well, ktc, read_noise, true_cds, pedestal, cg_V,
-    v_min, lsb, adc_gain, offset, top, gauss_min_mean, codes_out,
+    v_min, lsb, adc_gain, offset, top, gauss_min_mean, conv, codes_out,
 ):  # fmt: skip
     """Frames of the ``binned`` level, one after another, from the NumPy ``Generator`` ``gen``.
 
@@ -231,11 +424,16 @@ def frame_codes(
     charge counted another way); if ``ktc > 0`` the signal kTC draw of every pixel, then (without
     ``true_cds``) the reset kTC draw of every pixel; the ``(M, n)`` reset samples' read noise, the
     ``(M, n)`` signal samples' read noise. Each sample is formed and converted as in
-    ``read_out``, ``to_volts`` and ``adc_convert``; ``codes_out`` is ``(n_frames, 2M, n)``, the M
-    reset codes first.
+    ``read_out``, ``to_volts`` and ``adc_convert`` (the ideal ``conv``), or as built by
+    :func:`convert_rows`, one sample row of ``n`` pixels at a time, the comparator noise folded
+    into the read noise (``conv[8]``, see :func:`sample_noise`): nothing more is drawn.
+    ``codes_out`` is ``(n_frames, 2M, n)``, the M reset codes first.
     """
     n_frames, n = mean_e.shape
     m = codes_out.shape[1] // 2
+    built, read_e = conv[0], conv[8]
+    folded = read_e.shape[0] > 0
+    row = np.empty((1, n if built else 0))
     collected = np.empty(n)
     k_signal = np.zeros(n)
     k_reset = np.zeros(n)
@@ -251,11 +449,35 @@ def frame_codes(
                 k_reset[i] = k_signal[i] if true_cds else ktc * gen.standard_normal()
         for j in range(m):
             for i in range(n):
-                e = k_reset[i] + read_noise * gen.standard_normal()
+                rn = read_e[i] if folded else read_noise
+                e = k_reset[i] + rn * gen.standard_normal()
                 volts = pedestal + e * cg_V
-                codes_out[f, j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
+                if built:
+                    row[0, i] = volts
+                else:
+                    codes_out[f, j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
+            if built:
+                convert_rows(
+                    row, codes_out[f, j : j + 1], v_min, lsb, adc_gain, offset, top, conv, gen
+                )
         for j in range(m):
             for i in range(n):
-                e = (collected[i] + k_signal[i]) + read_noise * gen.standard_normal()
+                rn = read_e[i] if folded else read_noise
+                e = (collected[i] + k_signal[i]) + rn * gen.standard_normal()
                 volts = pedestal + e * cg_V
-                codes_out[f, m + j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
+                if built:
+                    row[0, i] = volts
+                else:
+                    codes_out[f, m + j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
+            if built:
+                convert_rows(
+                    row,
+                    codes_out[f, m + j : m + j + 1],
+                    v_min,
+                    lsb,
+                    adc_gain,
+                    offset,
+                    top,
+                    conv,
+                    gen,
+                )

@@ -27,7 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from chiptwin.pixel import _kernels
 from chiptwin.pixel._checks import check_array, check_int, check_scalar
-from chiptwin.pixel.adc import _check_adc, _check_errors
+from chiptwin.pixel.converter import Converter, resolve_converter
 
 #: Default pixels per chunk: one stream each, the unit of work of a thread.
 CHUNK_PIXELS: int = 1 << 16
@@ -57,12 +57,30 @@ def chunk_streams(
     two children seed its generators. SFC64 is NumPy's fast, statistically high-quality bit
     generator; the kernel advances the shot stream's state inline (see ``_kernels``).
     """
+    return _streams(_chunk_seeds(rng, n_pixels, chunk_pixels))
+
+
+def _chunk_seeds(
+    rng: np.random.Generator, n_pixels: int, chunk_pixels: int
+) -> list[np.random.SeedSequence]:
+    """The chunks' SeedSequences (4 integers drawn from ``rng``)."""
     n_chunks = -(-n_pixels // chunk_pixels)
     root = np.random.SeedSequence(rng.integers(0, 2**63, size=4).tolist())
-    pairs = [child.spawn(2) for child in root.spawn(n_chunks)]
-    shot = [np.random.Generator(np.random.SFC64(a)) for a, _ in pairs]
-    noise = [np.random.Generator(np.random.SFC64(b)) for _, b in pairs]
-    return shot, noise
+    return root.spawn(n_chunks)
+
+
+def _child(seq: np.random.SeedSequence, k: int) -> np.random.Generator:
+    """An SFC64 generator on the ``k``-th child of ``seq`` (what ``seq.spawn`` gives it)."""
+    key = np.random.SeedSequence(
+        seq.entropy, spawn_key=(*seq.spawn_key, k), pool_size=seq.pool_size
+    )
+    return np.random.Generator(np.random.SFC64(key))
+
+
+def _streams(
+    seeds: list[np.random.SeedSequence],
+) -> tuple[list[np.random.Generator], list[np.random.Generator]]:
+    return [_child(s, 0) for s in seeds], [_child(s, 1) for s in seeds]
 
 
 def _shot_states(shot: list[np.random.Generator]) -> NDArray[np.uint64]:
@@ -114,6 +132,7 @@ class _Plan(NamedTuple):
     """What the run needs besides the data: kernel constants and sizes, all checked."""
 
     consts: tuple
+    convs: list[tuple]  # the converter of each chunk (Converter.kernel_conv)
     chunk: int
     n_samples: int
     n_reset: int
@@ -141,15 +160,12 @@ def _sensor_consts(
 
 
 def _readout_consts(
-    pedestal_V: float, conversion_gain_uV_per_e: float, bits: int, v_min_V: float,
-    v_max_V: float, offset_lsb: float, gain_error: float,
+    pedestal_V: float, conversion_gain_uV_per_e: float, converter: Converter
 ) -> tuple:  # fmt: skip
-    """The voltage and ADC half of the kernel constants, checked as in ``adc_convert``."""
-    n, lo, hi = _check_adc(bits, v_min_V, v_max_V)
-    off, gain_err = _check_errors(offset_lsb, gain_error)
+    """The voltage and nominal ADC half of the kernel constants (the converter checked itself)."""
     cg = check_scalar("conversion_gain_uV_per_e", conversion_gain_uV_per_e, 0.0, lo_open=True)
     ped = check_scalar("pedestal_V", pedestal_V)
-    return (ped, cg * 1e-6, lo, (hi - lo) / 2.0**n, 1.0 + gain_err, off, 2.0**n - 1.0)
+    return (ped, cg * 1e-6, *converter.consts())
 
 
 def _run_frame(
@@ -167,7 +183,7 @@ def _run_frame(
         sl = slice(c * chunk, (c + 1) * chunk)
         _kernels.chain_chunk(
             shot[c], noise[c], photons[sl], gain[sl], dark[sl], *plan.consts,
-            reset2d[:, sl], signal2d[:, sl],
+            plan.convs[c], reset2d[:, sl], signal2d[:, sl],
         )  # fmt: skip
 
     if pool is None:
@@ -224,11 +240,12 @@ def sensor_chain(
     n_samples: int = 1,
     read_reset: bool = False,
     pedestal_V: float = 0.0,
-    bits: int = 12,
-    v_min_V: float = 0.0,
-    v_max_V: float = 1.0,
-    offset_lsb: float = 0.0,
-    gain_error: float = 0.0,
+    bits: int | None = None,
+    v_min_V: float | None = None,
+    v_max_V: float | None = None,
+    offset_lsb: float | None = None,
+    gain_error: float | None = None,
+    converter: Converter | None = None,
     shot_noise: Literal["poisson", "gaussian"] = "poisson",
     gaussian_min_mean_e: float = GAUSSIAN_MIN_MEAN_E,
     n_threads: int | None = None,
@@ -256,7 +273,14 @@ def sensor_chain(
     conversion_gain_uV_per_e, pedestal_V
         As in :func:`~chiptwin.pixel.adc.to_volts`.
     bits, v_min_V, v_max_V, offset_lsb, gain_error
-        As in :func:`~chiptwin.pixel.adc.adc_convert`.
+        As in :func:`~chiptwin.pixel.adc.adc_convert`; default 12, 0, 1, 0, 0. Not with
+        ``converter``.
+    converter : Converter, optional
+        The converters as built (:func:`~chiptwin.pixel.converter.build_converter`, one per
+        pixel of ``S``), instead of the keywords above. Its comparator noise is folded into each
+        sample's read-noise draw (one Gaussian of the summed variance,
+        :func:`chiptwin.pixel._kernels.sample_noise`): no stream moves, nothing more is drawn.
+        An ideal converter gives the keywords' codes bit for bit.
     shot_noise : {"poisson", "gaussian"}
         ``"poisson"``: exact, NumPy's sampler. ``"gaussian"``: a named approximation, the count
         ``max(0, rint(λ + √λ·z))`` for means ``λ ≥ gaussian_min_mean_e`` (exact Poisson below).
@@ -286,9 +310,10 @@ def sensor_chain(
     sensor = _sensor_consts(
         qe, full_well_e, ktc_e, read_noise_e, true_cds, read_reset, shot_noise, gaussian_min_mean_e
     )
-    readout = _readout_consts(
-        pedestal_V, conversion_gain_uV_per_e, bits, v_min_V, v_max_V, offset_lsb, gain_error
+    conv = resolve_converter(
+        converter, bits, v_min_V, v_max_V, offset_lsb, gain_error, (12, 0.0, 1.0, 0.0, 0.0)
     )
+    readout = _readout_consts(pedestal_V, conversion_gain_uV_per_e, conv)
     m = check_int("n_samples", n_samples, 1)
     chunk = check_int("chunk_pixels", chunk_pixels, 1)
     threads = check_int("n_threads", available_cores() if n_threads is None else n_threads, 1)
@@ -301,10 +326,20 @@ def sensor_chain(
         _pixel_map("gain_map", gain_map, first.shape),
         _pixel_map("dark_e", dark_e, first.shape),
     )
-    shot, noise = chunk_streams(rng, max(first.size, 1), chunk)
+    conv.check_pixels(first.size)
+    seeds = _chunk_seeds(rng, max(first.size, 1), chunk)
+    shot, noise = _streams(seeds)
+    fold = (sensor[3], readout[1])  # read noise (e⁻) and conversion gain (V/e⁻), checked
+    convs = [conv.kernel_conv(c * chunk, (c + 1) * chunk, fold) for c in range(len(seeds))]
     n_reset = m if read_reset else 0
     plan = _Plan(
-        sensor + readout, chunk, m, n_reset, min(threads, len(noise)), n_frames is not None
+        sensor + readout,
+        convs,
+        chunk,
+        m,
+        n_reset,
+        min(threads, len(noise)),
+        n_frames is not None,
     )
     _buffers(first.shape, plan.n_reset, m, out)  # check out now, not at the first frame
     return _run(frames, first, maps, (_shot_states(shot), noise), plan, out)

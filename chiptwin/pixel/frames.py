@@ -29,6 +29,7 @@ from chiptwin.limits import POISSON_LAM_MAX
 from chiptwin.pixel import _kernels
 from chiptwin.pixel._checks import check_array
 from chiptwin.pixel.chain import _readout_consts
+from chiptwin.pixel.converter import Converter, resolve_converter
 from chiptwin.pixel.sensor import _check_readout
 
 #: Pixels per random stream at the ``binned`` level: the unit of parallel work. A fixed number
@@ -82,11 +83,12 @@ def binned_codes(
     true_cds: bool,
     conversion_gain_uV_per_e: float,
     pedestal_V: float,
-    bits: int,
-    v_min_V: float,
-    v_max_V: float,
-    offset_lsb: float = 0.0,
-    gain_error: float = 0.0,
+    bits: int | None = None,
+    v_min_V: float | None = None,
+    v_max_V: float | None = None,
+    offset_lsb: float | None = None,
+    gain_error: float | None = None,
+    converter: Converter | None = None,
     counted_pixels: ArrayLike = (),
     counted_e: ArrayLike | None = None,
     threads: int | None = None,
@@ -108,7 +110,13 @@ def binned_codes(
     conversion_gain_uV_per_e, pedestal_V
         As in :func:`~chiptwin.pixel.adc.to_volts`.
     bits, v_min_V, v_max_V, offset_lsb, gain_error
-        As in :func:`~chiptwin.pixel.adc.adc_convert`.
+        As in :func:`~chiptwin.pixel.adc.adc_convert` (``offset_lsb``, ``gain_error`` default
+        0); required unless ``converter`` is given, and not with it.
+    converter : Converter, optional
+        The converters as built (:func:`~chiptwin.pixel.converter.build_converter`, one per
+        pixel). An ideal one gives the keywords' codes bit for bit. Comparator noise is folded
+        into each sample's read-noise draw (one Gaussian of the summed variance,
+        :func:`chiptwin.pixel._kernels.sample_noise`): it draws nothing more and moves no stream.
     counted_pixels : array_like of int (n_counted,), optional
         Pixels (indices along ``n_pixels``) whose collected charge was counted another way (the
         ``events`` photon level). Their Poisson draws are still made, and then replaced, as
@@ -134,15 +142,18 @@ def binned_codes(
     if lam.ndim != 2:
         raise ValueError(f"mean_e has shape {lam.shape}: must be (n_frames, n_pixels)")
     fw, ktc, read, m = _check_readout(full_well_e, ktc_e, read_noise_e, n_samples)
-    readout = _readout_consts(pedestal_V, conversion_gain_uV_per_e, bits, v_min_V, v_max_V,
-                              offset_lsb, gain_error)
+    conv = resolve_converter(converter, bits, v_min_V, v_max_V, offset_lsb, gain_error)
+    conv.check_pixels(lam.shape[1])
+    readout = _readout_consts(pedestal_V, conversion_gain_uV_per_e, conv)
     pixels, counted = _counted(counted_pixels, counted_e, lam.shape)
     codes = np.empty((lam.shape[0], 2 * m, lam.shape[1]), np.int64)
     if shot_noise not in SHOT_MIN_MEAN_E:
         raise ValueError(f"shot_noise = {shot_noise!r}: must be one of {sorted(SHOT_MIN_MEAN_E)}")
     consts = (fw, ktc, read, bool(true_cds), *readout, SHOT_MIN_MEAN_E[shot_noise])
+    fold = (read, readout[1])  # read noise (e⁻) and conversion gain (V/e⁻): comparator folded
     if isinstance(rng, np.random.Generator):
-        _kernels.frame_codes(rng, lam, pixels, counted, *consts, codes)
+        _kernels.frame_codes(rng, lam, pixels, counted, *consts, conv.kernel_conv(0, None, fold),
+                             codes)
         return codes
     streams = list(rng)
     n_chunks = max(1, -(-lam.shape[1] // CHUNK_PIXELS))
@@ -154,7 +165,8 @@ def binned_codes(
         lo, hi = c * CHUNK_PIXELS, min((c + 1) * CHUNK_PIXELS, lam.shape[1])
         mine = (pixels >= lo) & (pixels < hi)
         _kernels.frame_codes(streams[c], lam[:, lo:hi], pixels[mine] - lo,
-                             np.ascontiguousarray(counted[:, mine]), *consts, codes[:, :, lo:hi])
+                             np.ascontiguousarray(counted[:, mine]), *consts,
+                             conv.kernel_conv(lo, hi, fold), codes[:, :, lo:hi])
 
     threads = default_threads() if threads is None else int(threads)
     if n_chunks == 1 or threads <= 1:
