@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
+
 from chiptwin.config.budget import FOOTPRINT_PER_HEIGHT_MAX, amount_key, check_budget
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
@@ -35,7 +37,7 @@ def check_consistency(s: Scenario) -> None:
     # _dsp_formats, then _dsp_program, before _timing: the schedule is derived from the
     # program's stages, and their costs from the register formats
     for rule in (_name, _fidelity, _assay, _cascade, _sites, _optics, _dsp_formats, _dsp_program,
-                 _timing, _adc_range, _memory, _duration, _matched_filter, check_budget,
+                 _timing, _adc_range, _converter, _memory, _duration, _matched_filter, check_budget,
                  _site_amounts):
         rule(s)
 
@@ -209,6 +211,49 @@ def _timing(s: Scenario) -> None:
               f"must be ≥ reset + integration + {s.chip.samples_per_frame} conversions "
               f"= {sch.busy_ns} ns (t_int_s {s.chip.timing.t_int_s:g} s, one conversion "
               f"{sch.t_conv_ns} ns)")
+
+
+#: The ``[chip.adc]`` keys of the converter as built, and the one a pixel-level ValueError names.
+AS_BUILT_KEYS = ("comparator_noise_lsb", "inl_max_lsb", "inl_shape", "inl_table", "dnl_rms_lsb",
+                 "offset_sigma_lsb", "gain_sigma", "ramp")
+
+
+def _converter(s: Scenario) -> None:
+    """The converter as built (``chiptwin.pixel.converter``) can be built: a table file that
+    exists with 2^bits − 1 non-decreasing levels, a bow that keeps the transitions in order,
+    tables that fit in memory; one comparator-noise key."""
+    from pathlib import Path
+
+    from chiptwin import pixel
+
+    adc = s.chip.adc
+    if adc.comparator_noise_lsb > 0 and adc.comparator_noise_uV > 0:
+        _fail(s, "chip.adc.comparator_noise_uV", adc.comparator_noise_uV,
+              f"give the comparator noise once: comparator_noise_lsb is "
+              f"{adc.comparator_noise_lsb:g} already (set one of the two to 0)")
+    if (adc.inl_shape == "table") != bool(adc.inl_table):
+        key, value = (("chip.adc.inl_table", adc.inl_table) if adc.inl_table else
+                      ("chip.adc.inl_shape", adc.inl_shape))
+        _fail(s, key, value, 'a transition table needs inl_shape = "table" and an inl_table file')
+    folder = Path(s.source).parent if Path(s.source).is_file() else Path.cwd()
+    try:
+        spec = pixel.AsBuilt.from_keys(adc, folder)
+        if spec.ideal:
+            return
+        # the shapes' checks (bow, memory) on one converter per ramp: no map is drawn here
+        pixel.build_converter(np.random.default_rng(0), (s.chip.rows, s.chip.cols),
+                              bits=adc.bits, v_min_V=adc.v_min_V, v_max_V=adc.v_max_V,
+                              offset_lsb=adc.offset_error_lsb, gain_error=adc.gain_error,
+                              as_built=spec)
+    except (ValueError, OSError) as err:
+        text = str(err)
+        key = next((k for k in AS_BUILT_KEYS if text.startswith(k) or f" {k}" in text
+                    or f"{k} " in text), "inl_table" if isinstance(err, OSError) else "ramp")
+        _fail(s, f"chip.adc.{key}", getattr(adc, key), f"the converter cannot be built: {text}")
+    if s.run.fidelity.photons == "expected":
+        _fail(s, "run.fidelity.photons", "expected",
+              "with the ADC as built (comparator noise, INL, DNL or mismatch) the expected level "
+              "is not built yet: use binned (or set the converter's effects to 0)")
 
 
 def _adc_range(s: Scenario) -> None:

@@ -238,12 +238,35 @@ class Adc:
             "> 0 over any chip's draws (z > −10)")
     ramp: str = param("chip", choices=("chip", "column", "pixel"),
                       doc="converters sharing a ramp (its INL and DNL): all, a column's, none")
+    comparator_noise_uV: float = param(
+        0.0, lo=0.0, hi=1e5,
+        doc="µV rms, the comparator noise as a voltage (instead of comparator_noise_lsb: stays "
+            "physical when the bits change; one of the two may be set); ≤ 0.1 V")
+    fom_schreier_db: float = param(
+        165.7, lo=130.0, hi=190.0,
+        doc="dB, Schreier figure of merit SNDR + 10 log10(f_s / 2 / P) for the converter's "
+            "power and energy (ADC Performance Survey 1997–2025, REFERENCE §8: median of the "
+            "ENOB 12–14 designs 165.7 dB, best of all 189.2 dB); 130–190 dB spans the survey")
 
     @property
     def conversion_time_s(self) -> float:
         """One conversion: ``cycles_per_conversion`` (single slope: 2^bits) cycles. Unit: s."""
         cycles = self.cycles_per_conversion or 2**self.bits
         return cycles / self.clock_hz
+
+    @property
+    def comparator_noise_total_lsb(self) -> float:
+        """The comparator noise in LSB of this converter, from whichever key gives it."""
+        lsb_uV = (self.v_max_V - self.v_min_V) / 2**self.bits * 1e6
+        return self.comparator_noise_lsb + self.comparator_noise_uV / lsb_uV
+
+    @property
+    def energy_per_conversion_J(self) -> float:
+        """Energy of one conversion from the Schreier figure of merit at the ideal SNDR of the
+        bits, 6.02 N + 1.76 dB: FOM_S = SNDR + 10 log10(f_s / 2 / P) gives
+        P / f_s = 1 / (2 · 10^((FOM_S − SNDR)/10)). Unit: J (REFERENCE §8)."""
+        sndr_db = 6.02 * self.bits + 1.76
+        return 0.5 * 10.0 ** (-(self.fom_schreier_db - sndr_db) / 10.0)
 
 
 @dataclass(frozen=True)

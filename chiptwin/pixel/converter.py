@@ -131,6 +131,13 @@ class AsBuilt:
                 "'table' (the table carries the INL)"
             )
 
+    @property
+    def ideal(self) -> bool:
+        """No effect: the converter these effects build is today's rounding ADC."""
+        return self.inl_shape != "table" and not any(
+            (self.comparator_noise_lsb, self.inl_max_lsb, self.dnl_rms_lsb,
+             self.offset_sigma_lsb, self.gain_sigma))
+
     @classmethod
     def from_keys(cls, section: object, base_dir: str | Path | None = None) -> AsBuilt:
         """The effects read by name from any object holding the ``[chip.adc]`` keys (the

@@ -125,6 +125,11 @@ _METRICS = [
            lambda r: float(sum(r.summary["dsp"]["overflow_total"].values()))),
     Metric("adc_clipped", "mean", "samples", "ADC samples at code 0 or full scale",
            _chip("adc_clipped_samples")),
+    Metric("adc_power_w", "mean", "W", "the ADCs' average power: every pixel's 2M conversions a "
+           "frame at the Schreier FOM's energy per conversion ([chip.adc] fom_schreier_db, at the "
+           "bits' ideal SNDR 6.02 N + 1.76 dB) over the frame period", _chip("adc_power_w")),
+    Metric("adc_energy_per_frame_j", "mean", "J", "the ADCs' energy per frame (every pixel's 2M "
+           "conversions)", _chip("adc_energy_per_frame_j")),
     Metric("dsp_max_err_lsb", "mean", "LSB", "max |fixed − float| DSP output error (the run "
            "computes the float reference beside the fixed chain)", _dsp_max_err,
            needs_fixed=True),

@@ -248,9 +248,17 @@ def chip_figures(s: Scenario, sch: Schedule, chip: ChipRun) -> dict[str, Any]:
         flags.append("memory_overflow")
     if slow or chip.unprocessed_frames >= sch.block_frames:
         flags.append("dsp_cannot_keep_up")
+    adc = s.chip.adc
+    conversions = s.chip.n_pixels * 2 * sch.cms_samples  # reset and signal samples, every pixel
+    energy_j = conversions * adc.energy_per_conversion_J
     return {
         "frames": sch.n_frames,
-        "adc_bits": s.chip.adc.bits,
+        "adc_bits": adc.bits,
+        # the cost of a bit (REFERENCE §8): Schreier FOM at the bits' ideal SNDR
+        "adc_fom_schreier_db": adc.fom_schreier_db,
+        "adc_energy_per_conversion_j": adc.energy_per_conversion_J,
+        "adc_energy_per_frame_j": energy_j,
+        "adc_power_w": energy_j / (sch.frame_period_ns / 1e9),
         "memory_bits": s.chip.memory.capacity_bits,
         "memory_capacity_frames": sch.memory_frames,
         "memory_peak_frames": chip.memory_peak_frames,

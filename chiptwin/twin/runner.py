@@ -172,7 +172,8 @@ def chip_sensor(s: Scenario) -> stages.SensorModel:
     """The sensor of this chip: its PRNU/DSNU maps drawn from ``chip.fixed_pattern_seed``, or
     from ``scenario.seed`` when that is -1 (one chip per seed)."""
     chip_seed = s.chip.fixed_pattern_seed if s.chip.fixed_pattern_seed >= 0 else s.scenario.seed
-    return stages.sensor_model(s, stage_rng(chip_seed, "fixed_pattern"))
+    return stages.sensor_model(s, stage_rng(chip_seed, "fixed_pattern"),
+                               stage_rng(chip_seed, "adc_map"))
 
 
 def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Generator,
@@ -308,7 +309,7 @@ class _FrameReader:
             self.saved.write(k, self.codes if self.sampled else self.moments.cds_mean_lsb)
 
     def _draw(self, k: int, stop: int) -> np.ndarray:
-        sensor, adc = self.scene.sensor, self.s.chip.adc
+        sensor = self.scene.sensor
         pixels, counted = (), None
         if self.events is not None:
             pixels = self.events.pixels
@@ -319,8 +320,7 @@ class _FrameReader:
             ktc_e=sensor.ktc_e, read_noise_e=sensor.read_noise_e,
             n_samples=sensor.cms_samples, true_cds=sensor.true_cds,
             conversion_gain_uV_per_e=sensor.conversion_gain_uV_per_e,
-            pedestal_V=sensor.pedestal_V, bits=adc.bits, v_min_V=adc.v_min_V,
-            v_max_V=adc.v_max_V, offset_lsb=adc.offset_error_lsb, gain_error=adc.gain_error,
+            pedestal_V=sensor.pedestal_V, converter=sensor.converter,
             counted_pixels=pixels, counted_e=counted, shot_noise=self.s.run.fidelity.shot)
 
     def close(self) -> None:

@@ -6,7 +6,8 @@ the only place that knows both the scenario's field names and those functions' s
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 from scipy import sparse
@@ -238,10 +239,31 @@ class SensorModel:
     pedestal_V: float
     lsb_V: float
     e_per_lsb: float
+    #: The per-pixel converters as built (:func:`converter`); ideal: today's rounding ADC.
+    converter: pixel.Converter | None = None
 
 
-def sensor_model(s: Scenario, rng: np.random.Generator) -> SensorModel:
-    """Resolve the pixel and ADC parameters; draws the PRNU and DSNU maps from ``rng``."""
+def converter(s: Scenario, rng: np.random.Generator) -> pixel.Converter:
+    """The chip's per-pixel single-slope converters as ``[chip.adc]`` builds them
+    (:func:`chiptwin.pixel.build_converter`): comparator noise (from ``comparator_noise_lsb`` or
+    ``comparator_noise_uV``), the ramp's INL, DNL and the converters' offset and gain mismatch,
+    fixed per chip and drawn from ``rng`` (nothing is drawn for an ideal converter). A relative
+    ``inl_table`` is read from the scenario's folder."""
+    adc = s.chip.adc
+    folder = Path(s.source).parent if Path(s.source).is_file() else None
+    spec = replace(pixel.AsBuilt.from_keys(adc, folder),
+                   comparator_noise_lsb=adc.comparator_noise_total_lsb)
+    return pixel.build_converter(rng, (s.chip.rows, s.chip.cols), bits=adc.bits,
+                                 v_min_V=adc.v_min_V, v_max_V=adc.v_max_V,
+                                 offset_lsb=adc.offset_error_lsb, gain_error=adc.gain_error,
+                                 as_built=spec)
+
+
+def sensor_model(s: Scenario, rng: np.random.Generator,
+                 adc_rng: np.random.Generator) -> SensorModel:
+    """Resolve the pixel and ADC parameters; draws the PRNU and DSNU maps from ``rng`` and the
+    converters' fixed errors (:func:`converter`) from ``adc_rng``, a stream of their own, so a
+    converter as built never shifts the maps."""
     px, adc = s.chip.pixel, s.chip.adc
     gain_map, dark_map = pixel.fixed_pattern_maps(rng, s.chip.n_pixels, px.prnu_frac, px.dsnu_frac)
     dark = pixel.dark_current_e_per_s(px.dark_current_nA_per_cm2, px.diode_w_um * px.diode_h_um,
@@ -254,6 +276,7 @@ def sensor_model(s: Scenario, rng: np.random.Generator) -> SensorModel:
         read_noise_e=px.read_noise_e, cms_samples=s.chip.dsp.cms_samples, true_cds=px.true_cds,
         conversion_gain_uV_per_e=cg, pedestal_V=px.pedestal_V, lsb_V=lsb,
         e_per_lsb=lsb / (cg * 1e-6),
+        converter=converter(s, adc_rng),
     )
 
 
