@@ -1,6 +1,8 @@
 """The ``chiptwin`` command: a thin layer over :func:`chiptwin.twin.runner.run`.
 
-Exit codes: 0 success, 2 bad input (one clear line, no traceback), 1 internal error.
+Exit codes: 0 success, 2 bad input (one clear line, no traceback), 1 internal error, 130 on
+Ctrl-C and 143 on SIGTERM (what ``kill``, systemd, Slurm and Kubernetes send): both stop the
+command the same way, one line, everything a study stored kept, its workers gone.
 """
 
 from __future__ import annotations
@@ -8,7 +10,9 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
+import signal
 import sys
+import threading
 import time
 import traceback
 from collections.abc import Sequence
@@ -87,8 +91,27 @@ def _scenario_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, help="replace scenario.seed")
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the main thread is, so it unwinds as Ctrl-C does."""
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI in-process; returns the exit code."""
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        return _main(argv)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     try:
         parser = build_parser()
         parser.argv = list(sys.argv[1:] if argv is None else argv)
@@ -102,6 +125,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # e.g. `chiptwin list | head`: the reader left, nothing is wrong
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 (Python's documented remedy)
         return 0
+    except Terminated:
+        print("chiptwin: terminated (SIGTERM)", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("chiptwin: interrupted", file=sys.stderr)
         return 130

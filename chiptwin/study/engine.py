@@ -81,8 +81,10 @@ def run_study(study: Study | str | Path, workers: int | None = None,
             table = store.rows()
         finally:
             store.close()
-    finally:
-        executor.close()
+    except BaseException:  # Ctrl-C, SIGTERM, an error: stored rows stay, workers go now
+        executor.abort()
+        raise
+    executor.close()
     summary = summarise(plan, table, decisions)
     summary["runs"].update(resumed=resumed, computed=runner.computed)
     summary.update(wall_time_s=round(time.perf_counter() - t0, 3),
