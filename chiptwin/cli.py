@@ -169,14 +169,15 @@ def _dispatch(args: argparse.Namespace) -> int:
         return _dsp_report(scenario, args.json)
     if args.command == "ladder":
         return _ladder(scenario, args)
-    from chiptwin.config.outputs import check_out_dir
+    from chiptwin.config.outputs import check_out_dir, output_lock
     from chiptwin.fidelity import run
     from chiptwin.report import headline, write_outputs
 
     out = check_out_dir(args.out or Path("out") / scenario.scenario.name)  # before the run
     progress = None if args.quiet else _Progress()
-    result = run(scenario, progress=progress)
-    out = write_outputs(result, out)
+    with output_lock(out):
+        result = run(scenario, progress=progress)
+        out = write_outputs(result, out)
     if not args.quiet:
         for key, value in headline(result.summary):
             print(f"  {key:28s} {value}")
@@ -204,7 +205,7 @@ def _dsp_report(scenario, json_path: str | None) -> int:
 def _characterize(args: argparse.Namespace) -> int:
     from chiptwin.characterize import characterize
     from chiptwin.characterize.outputs import JSON_NAME, headline
-    from chiptwin.config.outputs import check_out_dir
+    from chiptwin.config.outputs import check_out_dir, output_lock
 
     if args.scenario is None and args.from_datasheet is None:
         raise ScenarioError("chiptwin", "characterize", "(nothing)",
@@ -221,9 +222,10 @@ def _characterize(args: argparse.Namespace) -> int:
         scenario = load_scenario(path, args.set, args.seed)
     out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}-emva1288",
                         marker=JSON_NAME)  # before the measurement
-    result = characterize(scenario, progress=None if args.quiet else _Progress("images"),
-                          datasheet_in=datasheet)
-    out = result.write(out)
+    with output_lock(out):
+        result = characterize(scenario, progress=None if args.quiet else _Progress("images"),
+                              datasheet_in=datasheet)
+        out = result.write(out)
     if not args.quiet:
         print("\n".join(headline(result.datasheet)))
         print(f"  outputs in {out}/ ({JSON_NAME}, datasheet.md, plots)")
@@ -259,7 +261,7 @@ def _validate_study(path: Path) -> int:
 
 
 def _study(args: argparse.Namespace) -> int:
-    from chiptwin.config.outputs import check_out_dir
+    from chiptwin.config.outputs import check_out_dir, output_lock
     from chiptwin.study import load_study, run_study
     from chiptwin.study.outputs import answer_lines, write_study_outputs
     from chiptwin.study.store import DB_NAME
@@ -268,18 +270,19 @@ def _study(args: argparse.Namespace) -> int:
         raise ScenarioError("chiptwin", "--workers", args.workers, "must be in [1, 1024]")
     study = load_study(resolve_study(args.study), resolve_scenario)
     out = check_out_dir(args.out or Path("out") / study.name, marker=DB_NAME)
-    new = not out.exists()
-    out.mkdir(exist_ok=True)
-    (out / "study.json").unlink(missing_ok=True)  # written last: its presence means complete
-    progress = None if args.quiet else _Progress("rows", after_s=0.0)
-    try:
-        result = run_study(study, workers=args.workers, scheduler=args.scheduler,
-                           db=out / DB_NAME, fresh=args.fresh, progress=progress)
-    except ScenarioError:  # refused before any row ran (scheduler, resumption): leave no trace
-        if new:
-            shutil.rmtree(out, ignore_errors=True)
-        raise
-    write_study_outputs(result, out)
+    with output_lock(out):
+        new = not out.exists()
+        out.mkdir(exist_ok=True)
+        (out / "study.json").unlink(missing_ok=True)  # written last: its presence = complete
+        progress = None if args.quiet else _Progress("rows", after_s=0.0)
+        try:
+            result = run_study(study, workers=args.workers, scheduler=args.scheduler,
+                               db=out / DB_NAME, fresh=args.fresh, progress=progress)
+        except ScenarioError:  # refused before any row ran (scheduler, resumption): no trace
+            if new:
+                shutil.rmtree(out, ignore_errors=True)
+            raise
+        write_study_outputs(result, out)
     for line in answer_lines(result.summary):
         print(line)
     runs = result.summary["runs"]
@@ -292,7 +295,7 @@ def _study(args: argparse.Namespace) -> int:
 def _ladder(scenario, args: argparse.Namespace) -> int:
     import json
 
-    from chiptwin.config.outputs import check_out_dir
+    from chiptwin.config.outputs import check_out_dir, output_lock
     from chiptwin.fidelity.ladder import run_ladder, table, write_ladder
 
     out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}_ladder",
@@ -300,10 +303,11 @@ def _ladder(scenario, args: argparse.Namespace) -> int:
     if args.json:
         _check_json_path(args.json)
     progress = _Progress("levels", after_s=0.0)
-    ladder = run_ladder(scenario, args.replicates, _reference_levels(args.reference),
-                        progress=progress)
-    print(table(ladder))
-    write_ladder(ladder, out)
+    with output_lock(out):
+        ladder = run_ladder(scenario, args.replicates, _reference_levels(args.reference),
+                            progress=progress)
+        print(table(ladder))
+        write_ladder(ladder, out)
     if args.json:
         Path(args.json).write_text(json.dumps(ladder, indent=1) + "\n")
     print(f"  outputs in {out}/ (ladder.json, ladder.png, ladder.md)")

@@ -3,7 +3,8 @@
 SIGTERM stops ``chiptwin study`` as Ctrl-C does (exit 143, one line, stored rows kept); SIGKILL
 kills the parent outright, and its pool workers follow it (``PR_SET_PDEATHSIG`` and the parent
 watchdog, :func:`chiptwin.study.execute.die_with_parent`). Either way, within 10 s no process of
-the study remains, and the same command resumes to the table of an uninterrupted run.
+the study remains, and the same command resumes to the table of an uninterrupted run. While
+the first runs, a second ``chiptwin study`` on its folder is refused naming its pid (item 2).
 Processes are found through ``/proc`` (Linux), no dependency.
 """
 
@@ -19,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+from chiptwin.cli import main
 from chiptwin.study import load_study, run_study
 from chiptwin.study.store import Store
 from tests.study.conftest import STUDY, comparable, write_study
@@ -60,18 +62,23 @@ def alive(pids: set[int]) -> set[int]:
     return out
 
 
+def stored(db: Path) -> int:
+    try:
+        return sqlite3.connect(db).execute("SELECT count(*) FROM runs").fetchone()[0]
+    except sqlite3.OperationalError:
+        return 0
+
+
 def start_and_wait(cmd: list[str], db: Path, rows: int) -> tuple[subprocess.Popen, set[int]]:
+    """Start the study; return once it has stored ``rows`` more rows, with its workers."""
+    rows += stored(db)
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env,
                             text=True)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None:
         time.sleep(0.2)
-        try:
-            stored = sqlite3.connect(db).execute("SELECT count(*) FROM runs").fetchone()[0]
-        except sqlite3.OperationalError:
-            continue
-        if stored >= rows:
+        if stored(db) >= rows:
             break
     assert proc.poll() is None, "the study finished before it could be stopped"
     workers = children(proc.pid)
@@ -91,7 +98,7 @@ def stop(proc: subprocess.Popen, workers: set[int], sig: int) -> float:
     return time.monotonic() - t0
 
 
-def test_sigterm_and_sigkill_leave_no_worker_and_the_study_resumes(tmp_path):
+def test_sigterm_and_sigkill_leave_no_worker_and_the_study_resumes(tmp_path, capsys):
     path = write_study(tmp_path, STUDY.replace("replicates = 3", "replicates = 24"))
     out = tmp_path / "out"
     db = out / "results.sqlite"
@@ -99,13 +106,15 @@ def test_sigterm_and_sigkill_leave_no_worker_and_the_study_resumes(tmp_path):
            "--workers", "2", "--quiet"]
 
     proc, workers = start_and_wait(cmd, db, rows=4)
+    assert main(cmd[3:]) == 2  # one writer a folder: refused before anything runs
+    assert f"pid {proc.pid}" in capsys.readouterr().err
     took = stop(proc, workers, signal.SIGTERM)
     assert proc.returncode == 143
     err = proc.stderr.read().strip().splitlines()
     assert err == ["chiptwin: terminated (SIGTERM)"], err
     print(f"SIGTERM: study and workers gone in {took:.2f} s")
 
-    proc, workers = start_and_wait(cmd, db, rows=12)  # resumes, then is killed outright
+    proc, workers = start_and_wait(cmd, db, rows=4)  # resumes, then is killed outright
     took = stop(proc, workers, signal.SIGKILL)
     assert proc.returncode == -signal.SIGKILL
     print(f"SIGKILL: workers gone in {took:.2f} s")
