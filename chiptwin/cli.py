@@ -159,6 +159,9 @@ def _dispatch(args: argparse.Namespace) -> int:
         for warning in scenario_warnings(scenario):
             print(f"chiptwin: warning: {warning}", file=sys.stderr)
         print(f"{path}: ok ({scenario.scenario.name})")
+        from chiptwin.config.cost import describe as describe_cost
+
+        print("\n".join(describe_cost(scenario)))
         if scenario.run.fidelity.auto_stages():
             from chiptwin.fidelity import describe, resolve
 
@@ -174,6 +177,9 @@ def _dispatch(args: argparse.Namespace) -> int:
     from chiptwin.report import headline, write_outputs
 
     out = check_out_dir(args.out or Path("out") / scenario.scenario.name)  # before the run
+    from chiptwin.config.cost import check_disk
+
+    check_disk(scenario, out)
     progress = None if args.quiet else _Progress()
     with output_lock(out):
         result = run(scenario, progress=progress)
@@ -277,7 +283,8 @@ def _study(args: argparse.Namespace) -> int:
         progress = None if args.quiet else _Progress("rows", after_s=0.0)
         try:
             result = run_study(study, workers=args.workers, scheduler=args.scheduler,
-                               db=out / DB_NAME, fresh=args.fresh, progress=progress)
+                               db=out / DB_NAME, fresh=args.fresh, progress=progress,
+                               announce=None if args.quiet else _announcer(progress))
         except ScenarioError:  # refused before any row ran (scheduler, resumption): no trace
             if new:
                 shutil.rmtree(out, ignore_errors=True)
@@ -292,6 +299,31 @@ def _study(args: argparse.Namespace) -> int:
     return 0
 
 
+def _announcer(progress: _Progress | None):
+    """Print a study's estimated total before its first row; its progress's ETA uses it."""
+    from chiptwin.config.cost import format_seconds
+
+    def announce(seconds: float, rows: int) -> None:
+        print(f"  {rows} rows to run, estimated ≈ {format_seconds(seconds)} (chiptwin.config.cost"
+              "; a bisect may stop sooner)", file=sys.stderr, flush=True)
+        if progress is not None and rows:
+            progress.per_unit_s = seconds / rows
+
+    return announce
+
+
+def _ladder_weights(scenario, args: argparse.Namespace) -> list[float]:
+    """Estimated seconds of each rung of the ladder (its warm-up and replicates)."""
+    from chiptwin.config.cost import wall_seconds
+    from chiptwin.fidelity.ladder import plan, with_levels
+
+    out = []
+    for rung in plan(scenario, _reference_levels(args.reference)):
+        out.append(0.0 if rung.skipped else
+                   (args.replicates + 1) * wall_seconds(with_levels(scenario, rung.fidelity)))
+    return out
+
+
 def _ladder(scenario, args: argparse.Namespace) -> int:
     import json
 
@@ -302,8 +334,14 @@ def _ladder(scenario, args: argparse.Namespace) -> int:
                         marker="ladder.json")
     if args.json:
         _check_json_path(args.json)
-    progress = _Progress("levels", after_s=0.0)
+    from chiptwin.config.cost import format_seconds
+
     with output_lock(out):
+        weights = _ladder_weights(scenario, args)
+        print(f"  {sum(w > 0 for w in weights)} levels × {args.replicates} replicates (+1 "
+              f"warm-up), estimated ≈ {format_seconds(sum(weights))}", file=sys.stderr,
+              flush=True)
+        progress = _Progress("levels", after_s=0.0, weights=weights)
         ladder = run_ladder(scenario, args.replicates, _reference_levels(args.reference),
                             progress=progress)
         print(table(ladder))
@@ -343,30 +381,56 @@ def _first_comment(path: Path) -> str:
 
 class _Progress:
     """Progress on stderr once work has taken ``after_s`` seconds, then every second: a bar with
-    the rate and the time left on a terminal, a plain line off one."""
+    the rate and the time left on a terminal, a plain line off one.
 
-    def __init__(self, unit: str = "frames", after_s: float = 1.0) -> None:
+    With ``weights`` (the estimated seconds of each unit, in order: :mod:`chiptwin.config.cost`)
+    the time left is the estimate of the units left scaled by measured / estimated so far, which
+    holds steady when units differ in cost (a ladder's levels); without, the measured rate. No rate
+    is shown before a unit has finished.
+    """
+
+    PRIOR_UNITS = 4
+
+    def __init__(self, unit: str = "frames", after_s: float = 1.0,
+                 weights: Sequence[float] | None = None) -> None:
         self.unit = unit
         self.t0 = time.perf_counter()
         self.last = self.t0 + after_s
-        self.first: tuple[float, int] | None = None
+        self.weights = list(weights) if weights else None
+        self.per_unit_s: float | None = None  # one estimate for every unit (a study's rows)
+        self.start: int | None = None  # units already done when the first call came (resumed)
 
     def __call__(self, done: int, total: int) -> None:
         now = time.perf_counter()
-        self.first = self.first or (now, done - 1)
+        if self.start is None:  # measured from the first unit on (not the start-up before it)
+            self.start, self.t0 = done, now
         if now - self.last >= 1.0 or (done == total and now - self.t0 > 2.0):
             self.last = now
             tty = sys.stderr.isatty()
-            t_first, n_first = self.first
-            rate = (done - n_first) / max(now - t_first, 1e-9)
-            eta = (total - done) / rate if rate > 0 else float("inf")
             bar, start = "", "\r" if tty else ""
             if tty:
                 filled = int(30 * done / max(total, 1))
                 bar = "[" + "#" * filled + "." * (30 - filled) + "] "
             print(f"{start}  {bar}{self.unit} {done}/{total} "
-                  f"({100 * done / max(total, 1):.0f} %, {rate:.3g}/s, ETA {eta:.0f} s)",
+                  f"({100 * done / max(total, 1):.0f} %{self._rate_eta(done, total, now)})",
                   end="" if tty and done < total else "\n", file=sys.stderr, flush=True)
+
+    def _rate_eta(self, done: int, total: int, now: float) -> str:
+        elapsed = now - self.t0
+        n = done - (self.start or 0)
+        weights = self.weights if self.weights and len(self.weights) >= total else None
+        if weights:
+            est_done = sum(weights[self.start or 0:done])
+            scale = elapsed / est_done if n > 0 and est_done > 0 and elapsed > 0 else 1.0
+            return f", ETA {scale * sum(weights[done:total]):.0f} s"
+        prior = self.per_unit_s * (total - done) if self.per_unit_s else None
+        if n <= 0 or elapsed <= 0:  # nothing measured yet: the estimate, or nothing
+            return "" if prior is None else f", ETA {prior:.0f} s (estimated)"
+        rate = n / elapsed
+        eta = (total - done) / rate
+        if prior is not None:  # the estimate counts as PRIOR_UNITS units, measured ones win
+            eta = (self.PRIOR_UNITS * prior + n * eta) / (self.PRIOR_UNITS + n)
+        return f", {rate:.3g}/s, ETA {eta:.0f} s"
 
 
 def entry() -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import re
 
 from chiptwin.config.budget import FOOTPRINT_PER_HEIGHT_MAX, amount_key, check_budget
+from chiptwin.config.cost import check_wall_time
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
 from chiptwin.constants import Q_E, s_to_ticks
@@ -36,7 +37,7 @@ def check_consistency(s: Scenario) -> None:
     # program's stages, and their costs from the register formats
     for rule in (_name, _fidelity, _assay, _cascade, _sites, _optics, _dsp_formats, _dsp_program,
                  _timing, _adc_range, _memory, _duration, _matched_filter, check_budget,
-                 _site_amounts):
+                 _site_amounts, check_wall_time):
         rule(s)
 
 
