@@ -1,6 +1,8 @@
 """The ``chiptwin`` command: a thin layer over :func:`chiptwin.twin.runner.run`.
 
-Exit codes: 0 success, 2 bad input (one clear line, no traceback), 1 internal error.
+Exit codes: 0 success, 2 bad input (one clear line, no traceback), 1 internal error, 130 on
+Ctrl-C and 143 on SIGTERM (what ``kill``, systemd, Slurm and Kubernetes send): both stop the
+command the same way, one line, everything a study stored kept, its workers gone.
 """
 
 from __future__ import annotations
@@ -8,7 +10,9 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
+import signal
 import sys
+import threading
 import time
 import traceback
 from collections.abc import Sequence
@@ -87,8 +91,27 @@ def _scenario_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, help="replace scenario.seed")
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the main thread is, so it unwinds as Ctrl-C does."""
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI in-process; returns the exit code."""
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        return _main(argv)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     try:
         parser = build_parser()
         parser.argv = list(sys.argv[1:] if argv is None else argv)
@@ -102,6 +125,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # e.g. `chiptwin list | head`: the reader left, nothing is wrong
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 (Python's documented remedy)
         return 0
+    except Terminated:
+        print("chiptwin: terminated (SIGTERM)", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("chiptwin: interrupted", file=sys.stderr)
         return 130
@@ -133,6 +159,9 @@ def _dispatch(args: argparse.Namespace) -> int:
         for warning in scenario_warnings(scenario):
             print(f"chiptwin: warning: {warning}", file=sys.stderr)
         print(f"{path}: ok ({scenario.scenario.name})")
+        from chiptwin.config.cost import describe as describe_cost
+
+        print("\n".join(describe_cost(scenario)))
         if scenario.run.fidelity.auto_stages():
             from chiptwin.fidelity import describe, resolve
 
@@ -143,14 +172,18 @@ def _dispatch(args: argparse.Namespace) -> int:
         return _dsp_report(scenario, args.json)
     if args.command == "ladder":
         return _ladder(scenario, args)
-    from chiptwin.config.outputs import check_out_dir
+    from chiptwin.config.outputs import check_out_dir, output_lock
     from chiptwin.fidelity import run
     from chiptwin.report import headline, write_outputs
 
     out = check_out_dir(args.out or Path("out") / scenario.scenario.name)  # before the run
+    from chiptwin.config.cost import check_disk
+
+    check_disk(scenario, out)
     progress = None if args.quiet else _Progress()
-    result = run(scenario, progress=progress)
-    out = write_outputs(result, out)
+    with output_lock(out):
+        result = run(scenario, progress=progress)
+        out = write_outputs(result, out)
     if not args.quiet:
         for key, value in headline(result.summary):
             print(f"  {key:28s} {value}")
@@ -178,7 +211,7 @@ def _dsp_report(scenario, json_path: str | None) -> int:
 def _characterize(args: argparse.Namespace) -> int:
     from chiptwin.characterize import characterize
     from chiptwin.characterize.outputs import JSON_NAME, headline
-    from chiptwin.config.outputs import check_out_dir
+    from chiptwin.config.outputs import check_out_dir, output_lock
 
     if args.scenario is None and args.from_datasheet is None:
         raise ScenarioError("chiptwin", "characterize", "(nothing)",
@@ -195,9 +228,10 @@ def _characterize(args: argparse.Namespace) -> int:
         scenario = load_scenario(path, args.set, args.seed)
     out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}-emva1288",
                         marker=JSON_NAME)  # before the measurement
-    result = characterize(scenario, progress=None if args.quiet else _Progress("images"),
-                          datasheet_in=datasheet)
-    out = result.write(out)
+    with output_lock(out):
+        result = characterize(scenario, progress=None if args.quiet else _Progress("images"),
+                              datasheet_in=datasheet)
+        out = result.write(out)
     if not args.quiet:
         print("\n".join(headline(result.datasheet)))
         print(f"  outputs in {out}/ ({JSON_NAME}, datasheet.md, plots)")
@@ -233,7 +267,7 @@ def _validate_study(path: Path) -> int:
 
 
 def _study(args: argparse.Namespace) -> int:
-    from chiptwin.config.outputs import check_out_dir
+    from chiptwin.config.outputs import check_out_dir, output_lock
     from chiptwin.study import load_study, run_study
     from chiptwin.study.outputs import answer_lines, write_study_outputs
     from chiptwin.study.store import DB_NAME
@@ -242,18 +276,20 @@ def _study(args: argparse.Namespace) -> int:
         raise ScenarioError("chiptwin", "--workers", args.workers, "must be in [1, 1024]")
     study = load_study(resolve_study(args.study), resolve_scenario)
     out = check_out_dir(args.out or Path("out") / study.name, marker=DB_NAME)
-    new = not out.exists()
-    out.mkdir(exist_ok=True)
-    (out / "study.json").unlink(missing_ok=True)  # written last: its presence means complete
-    progress = None if args.quiet else _Progress("rows", after_s=0.0)
-    try:
-        result = run_study(study, workers=args.workers, scheduler=args.scheduler,
-                           db=out / DB_NAME, fresh=args.fresh, progress=progress)
-    except ScenarioError:  # refused before any row ran (scheduler, resumption): leave no trace
-        if new:
-            shutil.rmtree(out, ignore_errors=True)
-        raise
-    write_study_outputs(result, out)
+    with output_lock(out):
+        new = not out.exists()
+        out.mkdir(exist_ok=True)
+        (out / "study.json").unlink(missing_ok=True)  # written last: its presence = complete
+        progress = None if args.quiet else _Progress("rows", after_s=0.0)
+        try:
+            result = run_study(study, workers=args.workers, scheduler=args.scheduler,
+                               db=out / DB_NAME, fresh=args.fresh, progress=progress,
+                               announce=None if args.quiet else _announcer(progress))
+        except ScenarioError:  # refused before any row ran (scheduler, resumption): no trace
+            if new:
+                shutil.rmtree(out, ignore_errors=True)
+            raise
+        write_study_outputs(result, out)
     for line in answer_lines(result.summary):
         print(line)
     runs = result.summary["runs"]
@@ -263,21 +299,53 @@ def _study(args: argparse.Namespace) -> int:
     return 0
 
 
+def _announcer(progress: _Progress | None):
+    """Print a study's estimated total before its first row; its progress's ETA uses it."""
+    from chiptwin.config.cost import format_seconds
+
+    def announce(seconds: float, rows: int) -> None:
+        print(f"  {rows} rows to run, estimated ≈ {format_seconds(seconds)} (chiptwin.config.cost"
+              "; a bisect may stop sooner)", file=sys.stderr, flush=True)
+        if progress is not None and rows:
+            progress.per_unit_s = seconds / rows
+
+    return announce
+
+
+def _ladder_weights(scenario, args: argparse.Namespace) -> list[float]:
+    """Estimated seconds of each rung of the ladder (its warm-up and replicates)."""
+    from chiptwin.config.cost import wall_seconds
+    from chiptwin.fidelity.ladder import plan, with_levels
+
+    out = []
+    for rung in plan(scenario, _reference_levels(args.reference)):
+        out.append(0.0 if rung.skipped else
+                   (args.replicates + 1) * wall_seconds(with_levels(scenario, rung.fidelity)))
+    return out
+
+
 def _ladder(scenario, args: argparse.Namespace) -> int:
     import json
 
-    from chiptwin.config.outputs import check_out_dir
+    from chiptwin.config.outputs import check_out_dir, output_lock
     from chiptwin.fidelity.ladder import run_ladder, table, write_ladder
 
     out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}_ladder",
                         marker="ladder.json")
     if args.json:
         _check_json_path(args.json)
-    progress = _Progress("levels", after_s=0.0)
-    ladder = run_ladder(scenario, args.replicates, _reference_levels(args.reference),
-                        progress=progress)
-    print(table(ladder))
-    write_ladder(ladder, out)
+    from chiptwin.config.cost import format_seconds
+
+    with output_lock(out):
+        weights = _ladder_weights(scenario, args)
+        print(f"  {sum(w > 0 for w in weights)} levels × {args.replicates} replicates (+1 "
+              f"warm-up), estimated ≈ {format_seconds(sum(weights))}", file=sys.stderr,
+              flush=True)
+        progress = _Progress("levels", after_s=0.0, weights=weights)
+        ladder = run_ladder(scenario, args.replicates, _reference_levels(args.reference),
+                            progress=progress)
+        print(table(ladder))
+        write_ladder(ladder, out)
     if args.json:
         Path(args.json).write_text(json.dumps(ladder, indent=1) + "\n")
     print(f"  outputs in {out}/ (ladder.json, ladder.png, ladder.md)")
@@ -313,30 +381,56 @@ def _first_comment(path: Path) -> str:
 
 class _Progress:
     """Progress on stderr once work has taken ``after_s`` seconds, then every second: a bar with
-    the rate and the time left on a terminal, a plain line off one."""
+    the rate and the time left on a terminal, a plain line off one.
 
-    def __init__(self, unit: str = "frames", after_s: float = 1.0) -> None:
+    With ``weights`` (the estimated seconds of each unit, in order: :mod:`chiptwin.config.cost`)
+    the time left is the estimate of the units left scaled by measured / estimated so far, which
+    holds steady when units differ in cost (a ladder's levels); without, the measured rate. No rate
+    is shown before a unit has finished.
+    """
+
+    PRIOR_UNITS = 4
+
+    def __init__(self, unit: str = "frames", after_s: float = 1.0,
+                 weights: Sequence[float] | None = None) -> None:
         self.unit = unit
         self.t0 = time.perf_counter()
         self.last = self.t0 + after_s
-        self.first: tuple[float, int] | None = None
+        self.weights = list(weights) if weights else None
+        self.per_unit_s: float | None = None  # one estimate for every unit (a study's rows)
+        self.start: int | None = None  # units already done when the first call came (resumed)
 
     def __call__(self, done: int, total: int) -> None:
         now = time.perf_counter()
-        self.first = self.first or (now, done - 1)
+        if self.start is None:  # measured from the first unit on (not the start-up before it)
+            self.start, self.t0 = done, now
         if now - self.last >= 1.0 or (done == total and now - self.t0 > 2.0):
             self.last = now
             tty = sys.stderr.isatty()
-            t_first, n_first = self.first
-            rate = (done - n_first) / max(now - t_first, 1e-9)
-            eta = (total - done) / rate if rate > 0 else float("inf")
             bar, start = "", "\r" if tty else ""
             if tty:
                 filled = int(30 * done / max(total, 1))
                 bar = "[" + "#" * filled + "." * (30 - filled) + "] "
             print(f"{start}  {bar}{self.unit} {done}/{total} "
-                  f"({100 * done / max(total, 1):.0f} %, {rate:.3g}/s, ETA {eta:.0f} s)",
+                  f"({100 * done / max(total, 1):.0f} %{self._rate_eta(done, total, now)})",
                   end="" if tty and done < total else "\n", file=sys.stderr, flush=True)
+
+    def _rate_eta(self, done: int, total: int, now: float) -> str:
+        elapsed = now - self.t0
+        n = done - (self.start or 0)
+        weights = self.weights if self.weights and len(self.weights) >= total else None
+        if weights:
+            est_done = sum(weights[self.start or 0:done])
+            scale = elapsed / est_done if n > 0 and est_done > 0 and elapsed > 0 else 1.0
+            return f", ETA {scale * sum(weights[done:total]):.0f} s"
+        prior = self.per_unit_s * (total - done) if self.per_unit_s else None
+        if n <= 0 or elapsed <= 0:  # nothing measured yet: the estimate, or nothing
+            return "" if prior is None else f", ETA {prior:.0f} s (estimated)"
+        rate = n / elapsed
+        eta = (total - done) / rate
+        if prior is not None:  # the estimate counts as PRIOR_UNITS units, measured ones win
+            eta = (self.PRIOR_UNITS * prior + n * eta) / (self.PRIOR_UNITS + n)
+        return f", {rate:.3g}/s, ETA {eta:.0f} s"
 
 
 def entry() -> None:

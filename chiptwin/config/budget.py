@@ -13,7 +13,9 @@ the limit (exit 2 from the CLI, an ``invalid`` point in a study):
   sampler refuses more, and the count would not fit an int64);
 * **chip time** — the chip model's event times are integer nanosecond ticks stored as int64: the
   DSP's work over the run (it goes on after the last frame when the DSP is slow) must fit in
-  :data:`~chiptwin.constants.MAX_TIME_S`, as any time a scenario gives does.
+  :data:`~chiptwin.constants.MAX_TIME_S`, as any time a scenario gives does;
+and beside them, in :mod:`chiptwin.config.cost` (over this module), the run's estimated wall
+time against ``[run] max_wall_s``.
 
 The per-unit byte counts are measured peaks of ``chiptwin run`` (RSS and ``tracemalloc``) with a
 margin; ``tests/config/test_budget.py`` checks that the estimate stays above measured runs of

@@ -12,6 +12,7 @@ import re
 import numpy as np
 
 from chiptwin.config.budget import FOOTPRINT_PER_HEIGHT_MAX, amount_key, check_budget
+from chiptwin.config.cost import check_wall_time
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
 from chiptwin.constants import Q_E, s_to_ticks
@@ -38,7 +39,7 @@ def check_consistency(s: Scenario) -> None:
     # program's stages, and their costs from the register formats
     for rule in (_name, _fidelity, _assay, _cascade, _sites, _optics, _dsp_formats, _dsp_program,
                  _timing, _adc_range, _converter, _memory, _duration, _matched_filter, check_budget,
-                 _site_amounts):
+                 _site_amounts, check_wall_time):
         rule(s)
 
 

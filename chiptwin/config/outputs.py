@@ -3,14 +3,21 @@
 A run replaces its output folder whole (:func:`replacing`), so the folder is checked before the
 run starts (:func:`check_out_dir`): new, empty, or a previous chiptwin output. A refused folder is
 bad input (:class:`~chiptwin.config.ScenarioError` naming ``--out``), like a bad scenario file.
+
+One writer per output folder (:func:`output_lock`): a command holds ``<out>.lock`` beside the
+folder (beside it, since a run replaces the folder whole) for its whole life: an ``flock`` on a
+file holding the writer's pid. A second command on the same folder is refused naming that pid; a
+lock left by a process that is gone (the kernel drops an ``flock`` with its holder) is taken over
+with a message naming the old pid.
 """
 
 from __future__ import annotations
 
 import os
 import shutil
+import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -71,4 +78,64 @@ def replacing(out: Path) -> Iterator[Path]:
         raise
 
 
-__all__ = ["OUTPUT_MARK", "check_out_dir", "replacing"]
+def lock_path(out: Path) -> Path:
+    """The lock file of an output folder: ``<out>.lock``, beside it."""
+    return out.with_name(out.name + ".lock")
+
+
+def _note(message: str) -> None:
+    print(f"chiptwin: note: {message}", file=sys.stderr)
+
+
+@contextmanager
+def output_lock(out: Path, note: Callable[[str], None] = _note) -> Iterator[Path]:
+    """Hold the output folder ``out`` for one writer while the block runs.
+
+    Raises
+    ------
+    ScenarioError
+        Naming ``--out`` and the pid of the command that holds the folder.
+    """
+    try:
+        import fcntl
+    except ImportError:  # not POSIX: no lock (the folder rules still hold)
+        yield lock_path(out)
+        return
+    path = lock_path(out)
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = _read_pid(fd)
+            os.close(fd)
+            _refuse(str(out), f"is being written by another chiptwin command (pid {holder}, "
+                              f"lock {path}); wait for it to finish, stop it, or choose "
+                              "another --out")
+        try:
+            same = os.fstat(fd).st_ino == os.stat(path).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:  # not a file its last holder unlinked while we waited
+            break
+        os.close(fd)
+    old = _read_pid(fd)
+    if old and old != os.getpid():
+        note(f"took over the lock of {out} left by pid {old}, which is no longer running")
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+    try:
+        yield path
+    finally:
+        path.unlink(missing_ok=True)
+        os.close(fd)  # releases the flock
+
+
+def _read_pid(fd: int) -> int | None:
+    try:
+        return int(os.pread(fd, 32, 0).decode().strip() or 0) or None
+    except (OSError, ValueError):
+        return None
+
+
+__all__ = ["OUTPUT_MARK", "check_out_dir", "lock_path", "output_lock", "replacing"]

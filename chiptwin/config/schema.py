@@ -455,6 +455,10 @@ class Run:
         doc="binned level: carry pixels that see no site light (≤ 0.1 of their noise) at the "
             "expected level instead of drawing them (chiptwin.twin.shortcuts; same law, other "
             "draws)")
+    max_wall_s: float = param(
+        3600.0, lo=1.0, hi=1e7,
+        doc="s of wall time a run may be estimated at (chiptwin.config.cost) before it is "
+            "refused; default 1 hour (CHOICE: an interactive run; a longer one is asked for)")
     fidelity: Fidelity = field(default_factory=Fidelity)
     error_budget: ErrorBudget = field(default_factory=ErrorBudget)
 

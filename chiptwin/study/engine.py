@@ -22,6 +22,7 @@ import numpy as np
 
 from chiptwin import __version__
 from chiptwin.config import ScenarioError
+from chiptwin.config.cost import WORKER_START_S
 from chiptwin.detection.stats import (
     Estimate,
     decide,
@@ -53,7 +54,8 @@ class StudyResult:
 
 def run_study(study: Study | str | Path, workers: int | None = None,
               scheduler: str | None = None, db: str | Path = ":memory:", fresh: bool = False,
-              progress: Progress | None = None) -> StudyResult:
+              progress: Progress | None = None,
+              announce: Callable[[float, int], None] | None = None) -> StudyResult:
     """Run a study and return its table and answer.
 
     Parameters
@@ -64,6 +66,8 @@ def run_study(study: Study | str | Path, workers: int | None = None,
     db : the SQLite file rows go to (``":memory:"``: nothing kept); an existing one resumes
     fresh : discard the rows stored in ``db`` first
     progress : ``progress(rows_done, rows_total)`` as rows finish
+    announce : ``announce(seconds, rows)`` once before the first row: the estimated wall time
+        of the rows not stored yet (:func:`estimate_s`) on this executor's workers
     """
     t0 = time.perf_counter()
     if not isinstance(study, Study):
@@ -76,18 +80,36 @@ def run_study(study: Study | str | Path, workers: int | None = None,
         store = Store(db, study, fresh=fresh)
         try:
             resumed = len(store.done())
+            if announce:
+                per_row, rows = estimate_s(plan)
+                left = max(rows - resumed, 0)
+                start = WORKER_START_S if executor.workers > 1 else 0.0
+                announce(start + per_row * left / max(executor.workers, 1), left)
             runner = _Runner(plan, store, executor, progress)
             decisions = runner.search()
             table = store.rows()
         finally:
             store.close()
-    finally:
-        executor.close()
+    except BaseException:  # Ctrl-C, SIGTERM, an error: stored rows stay, workers go now
+        executor.abort()
+        raise
+    executor.close()
     summary = summarise(plan, table, decisions)
     summary["runs"].update(resumed=resumed, computed=runner.computed)
     summary.update(wall_time_s=round(time.perf_counter() - t0, 3),
                    executor={"kind": executor.name, "workers": executor.workers})
     return StudyResult(study, table, summary["answer"], summary)
+
+
+def estimate_s(plan: Plan) -> tuple[float, int]:
+    """The mean estimated seconds of one row and the rows the study may run (a bisect's cap),
+    from each valid point's :func:`chiptwin.config.cost.wall_seconds`."""
+    from chiptwin.config.cost import wall_seconds
+
+    study = plan.study
+    seconds = [wall_seconds(sc) for sc in plan.scenarios.values()]
+    per_row = sum(seconds) / len(seconds) if seconds else 0.0
+    return per_row, (len(plan.points) + len(plan.references)) * study.replicates
 
 
 class Plan:

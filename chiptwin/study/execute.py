@@ -5,18 +5,59 @@ they complete, in any order; a row's numbers depend only on its task, so the thr
 table. The pool uses ``spawn`` (numba and forked threads do not mix) and stays up across the
 batches of a bisect search; Dask runs on an existing cluster (``--scheduler tcp://host:8786``) or
 a ``distributed.LocalCluster`` it starts (``--scheduler local``).
+
+Workers never outlive the study (issue 22): a pool worker asks Linux to send it SIGKILL when its
+parent dies (``prctl(PR_SET_PDEATHSIG)``) and, as a fallback on any platform, watches its parent's
+pid from a thread; an interrupted study (Ctrl-C, SIGTERM) terminates its workers at once rather
+than waiting for the rows in flight. A Dask client cancels its futures when interrupted; a client
+killed outright is dropped by the scheduler, which then forgets the futures only it wanted.
 """
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
+import signal
+import sys
+import threading
+import time
 from collections.abc import Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
 from chiptwin.config import ScenarioError
 from chiptwin.study.rows import RowTask, run_row
+
+#: Seconds between two looks of a worker's watchdog at its parent's pid.
+WATCHDOG_PERIOD_S = 0.5
+_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+
+
+def die_with_parent(parent_pid: int) -> None:
+    """Make this process exit when ``parent_pid`` (its parent) dies, however it dies.
+
+    Linux: the kernel sends SIGKILL at the parent's death (``prctl(PR_SET_PDEATHSIG)``).
+    Everywhere: a daemon thread checks every :data:`WATCHDOG_PERIOD_S` that the parent is still
+    this process's parent (an orphan is re-parented, so its ``getppid`` changes) and exits if not.
+    The pool's initializer; the parent may already be gone when it runs, which both notice.
+    """
+    if sys.platform.startswith("linux"):
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+        except (OSError, AttributeError):
+            pass  # the watchdog below still holds
+    if os.getppid() != parent_pid:
+        os._exit(1)
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(WATCHDOG_PERIOD_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="chiptwin-parent-watchdog", daemon=True).start()
+
 
 DASK_HINT = 'needs the optional extra: pip install "chiptwin[dask]" (Dask distributed)'
 
@@ -34,6 +75,9 @@ class SerialExecutor:
     def close(self) -> None:
         pass
 
+    def abort(self) -> None:
+        pass
+
 
 class PoolExecutor:
     """A local process pool of ``workers`` processes.
@@ -46,7 +90,8 @@ class PoolExecutor:
 
     def __init__(self, workers: int) -> None:
         self.workers = workers
-        self.pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
+        self.pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                                        initializer=die_with_parent, initargs=(os.getpid(),))
 
     def run(self, tasks: Iterable[RowTask]) -> Iterator[dict[str, Any]]:
         pending = iter(tasks)
@@ -69,6 +114,17 @@ class PoolExecutor:
 
     def close(self) -> None:
         self.pool.shutdown(wait=True, cancel_futures=True)
+
+    def abort(self) -> None:
+        """Stop now (the study was interrupted): the rows in flight are lost, never waited for."""
+        processes = list((getattr(self.pool, "_processes", None) or {}).values())
+        for proc in processes:
+            proc.terminate()
+        for proc in processes:
+            proc.join(timeout=5)
+            if proc.is_alive():
+                proc.kill()
+        self.pool.shutdown(wait=False, cancel_futures=True)
 
 
 class DaskExecutor:
@@ -93,11 +149,13 @@ class DaskExecutor:
                 raise ScenarioError("chiptwin", "--scheduler", address,
                                     f"no Dask scheduler answers there ({exc})") from None
         self.workers = len(self.client.scheduler_info()["workers"]) or workers
+        self.futures: list = []
 
     def run(self, tasks: Iterable[RowTask]) -> Iterator[dict[str, Any]]:
         from distributed import as_completed
 
         futures = [self.client.submit(run_row, t, pure=False) for t in tasks]
+        self.futures = futures
         try:
             for future in as_completed(futures):
                 yield future.result()
@@ -108,6 +166,14 @@ class DaskExecutor:
         self.client.close()
         if self.cluster is not None:
             self.cluster.close()
+
+    def abort(self) -> None:
+        """Interrupted: cancel every future of this client, then close (the LocalCluster's
+        workers with it)."""
+        try:
+            self.client.cancel([f for f in self.futures if not f.done()], force=True)
+        finally:
+            self.close()
 
 
 def make_executor(workers: int | None = None, scheduler: str | None = None):

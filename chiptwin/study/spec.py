@@ -218,7 +218,7 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
                           default=10),
         verify=err.integer(st, "verify", 0, 10, "points above a bisect answer re-checked",
                            default=1),
-        description=st.get("description", ""), datasheet_text=datasheet_text,
+        description=err.text(st, "description"), datasheet_text=datasheet_text,
     )
     _check_whole(err, study)
     return study
@@ -347,6 +347,12 @@ class _Errors:
         v = t.get(key, dataclasses.MISSING)
         if not isinstance(v, str) or not re.fullmatch(pattern, v) or v in (".", ".."):
             self.fail(f"study.{key}", v, f"must be {allowed}")
+        return v
+
+    def text(self, t: dict, key: str) -> str:
+        v = t.get(key, "")
+        if not isinstance(v, str):
+            self.fail(f"study.{key}", v, "must be text (a string)")
         return v
 
     def integer(self, t: dict, key: str, lo: int, hi: int, why: str, default=None) -> int:
@@ -492,6 +498,9 @@ def _metrics(err: _Errors, st: dict) -> tuple[str, ...]:
             if k != "name":
                 err.fail(f"study.metric[{i}].{k}", m[k], _unknown(k, {"name"}))
         name = m.get("name", dataclasses.MISSING)
+        if not isinstance(name, str):
+            err.fail(f"study.metric[{i}].name", name, "must be the name of a metric (text), "
+                     "one of " + ", ".join(sorted(CATALOGUE)))
         if name not in CATALOGUE:
             err.fail(f"study.metric[{i}].name", name, _unknown(str(name), set(CATALOGUE))
                      .replace("unknown key", "unknown metric"))

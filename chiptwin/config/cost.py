@@ -1,0 +1,203 @@
+"""How long a run would take and how much it would write, estimated before it starts (issue 22).
+
+The estimate adds the stage costs the twin already knows from a scenario, each a count times a
+cost per unit (:func:`wall_estimate`, term by term):
+
+* **pixel-frames**: every frame, every pixel, every CMS sample is made (moments, and codes at
+  the ``binned``/``events`` levels) and read by the DSP at its level (``float``, ``fixed``,
+  ``rtl``);
+* **chip events**: a fixed cost per frame (the SimPy processes, the trace);
+* **arrival times** (``events`` level): per site pixel and window, the cells of the rate and, up
+  to :data:`EVENTS_DRAWN_MAX` expected electrons a window, one draw per arrival (above it the
+  count and the full-well time are drawn from order statistics, at no cost per photon);
+* **solver** (``cascade`` kinetics): the stiff ODE per flow or per assay window.
+
+A run estimated past ``[run] max_wall_s`` is refused (exit 2) naming the estimate, its largest
+term and the key that raises the limit; ``save_frames`` past the free disk of the output folder
+likewise (:func:`check_disk`). The estimate is a planning figure: ``tests/config/test_cost.py``
+holds it within :data:`ESTIMATE_FACTOR` of measured wall time on bundled scenes.
+
+Calibration: ``benchmarks/bench_estimate.py`` (``python benchmarks/bench_estimate.py``) runs the
+scenes below and prints measured against estimated wall time; the constants were measured with it
+on the 2-core development machine (Linux, Python 3.11, numba cache warm), per scene:
+pyro_1fmol (1,520 frames × 128 pixels × 8 samples, binned, float DSP: 0.43 s),
+pyro_array_256 reduced (500 frames × 65,536 pixels × 8 samples: 21 s),
+ccd_two_wells (336 frames × 512 pixels × 2 samples, fixed DSP and its 7-stage program: 9.2 s),
+crosstalk_microarray (56 frames × 128 × 8, fixed: 0.95 s), the events level on pyro_1fmol and
+ccd_two_wells (reduced: 0.85 s and 8.6 s) and cascade kinetics on pyro_1fmol (8 flows: 8.3 s).
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+from chiptwin.config.budget import max_coupling, max_site_photons, n_sites
+from chiptwin.config.fields import ScenarioError
+from chiptwin.config.schema import Scenario
+from chiptwin.constants import s_to_ticks
+
+#: Per run: scene preparation, coupling, outputs gathered (not the interpreter's start). Unit: s.
+RUN_S: float = 0.05
+#: Per frame: the chip model's events (reset, integrate, convert, write, DSP job) and the trace.
+#: Unit: s (pyro_1fmol: 0.43 s over 1,520 frames, 1e-7 s/pixel-sample of it).
+FRAME_S: float = 2.0e-4
+#: Per pixel-sample of a frame made and read by the float DSP (moments, Poisson draws, codes).
+#: Unit: s (pyro_array_256: 21 s / (500 × 65,536 × 8)).
+PIXEL_SAMPLE_S: dict[str, float] = {"expected": 6e-8, "binned": 8e-8, "events": 8e-8}
+#: Per pixel-sample at each DSP level, beyond the float level's. Unit: s. ``fixed``: ccd_two_wells
+#: (9.2 s over 336 × 1,024 pixel-samples) and crosstalk_microarray (0.95 s over 56 × 1,024).
+#: ``rtl``: NOT measured here (no simulator on the calibration path); a stated guess of 100× the
+#: fixed level, so that an RTL co-simulation of a long run is refused rather than let run.
+DSP_PIXEL_SAMPLE_S: dict[str, float] = {"float": 0.0, "fixed": 2.2e-5, "rtl": 2.2e-3}
+#: Per site pixel and window at the events level: the rate's cells. Unit: s (pyro_1fmol
+#: reduced: 0.85 s over 116 frames × 2 site pixels, every window above the drawing limit).
+EVENTS_WINDOW_S: float = 3.0e-3
+#: Per arrival time drawn. Unit: s (ccd_two_wells reduced: ≈ 0.15 s a frame at the drawing limit).
+ARRIVAL_S: float = 7.0e-6
+#: Expected electrons per window up to which every arrival is drawn (``EventPixels.MAX_EVENTS``).
+EVENTS_DRAWN_MAX: int = 20_000
+#: Per assay window (a flow) of the cascade's stiff solver. Unit: s (pyro_1fmol, 8 flows: 8.3 s).
+CASCADE_WINDOW_S: float = 1.0
+#: The factor within which the estimate is held of measured wall time (tests/config/test_cost.py).
+ESTIMATE_FACTOR: float = 10.0
+#: Per worker of a study's process pool: spawn, import numpy/numba/chiptwin, load the kernels.
+#: Unit: s (the small study of tests/study: 40 rows on 2 workers, ≈ 4 s before the first row).
+WORKER_START_S: float = 4.0
+#: Free disk kept beyond ``save_frames``' file (outputs, plots, the temporary folder). Unit: B.
+DISK_MARGIN_BYTES: int = 64 << 20
+
+
+@dataclass(frozen=True)
+class CostTerm:
+    """One term of the estimate: what it counts, its seconds, and the keys that set its size."""
+
+    what: str
+    seconds: float
+    keys: str
+
+
+def _level(s: Scenario, stage: str, default: str, order: tuple[str, ...]) -> str:
+    """The level in force (``auto``: the cheapest it may pick, so nothing is refused on a guess)."""
+    level = getattr(s.run.fidelity, stage) or default
+    return order[0] if level == "auto" else level
+
+
+def n_frames(s: Scenario) -> int:
+    return s_to_ticks(s.run.duration_s) // s_to_ticks(s.chip.timing.frame_period_s)
+
+
+def _windows(s: Scenario) -> int:
+    a = s.assay
+    return a.n_flows if a.kind == "pyrosequencing" else 1
+
+
+def wall_estimate(s: Scenario) -> list[CostTerm]:
+    """The run's wall time, term by term. Unit: s."""
+    c = s.chip
+    frames = n_frames(s)
+    photons = _level(s, "photons", "binned", ("expected", "binned", "events"))
+    dsp = s.dsp_level if s.dsp_level != "auto" else "float"
+    kinetics = _level(s, "kinetics", "closed_form", ("closed_form", "cascade"))
+    ps = frames * c.n_pixels * c.samples_per_frame
+    length = "run.duration_s / chip.timing.frame_period_s"
+    terms = [
+        CostTerm("scene and outputs", RUN_S, ""),
+        CostTerm(f"{frames} frames of chip events × {FRAME_S:g} s", frames * FRAME_S, length),
+        CostTerm(f"{ps:.3g} pixel-samples ({photons}) × {PIXEL_SAMPLE_S[photons]:g} s",
+                 ps * PIXEL_SAMPLE_S[photons],
+                 f"{length}, chip.rows × chip.cols, chip.dsp.cms_samples"),
+    ]
+    if DSP_PIXEL_SAMPLE_S[dsp]:
+        terms.append(CostTerm(f"{ps:.3g} pixel-samples through the {dsp} DSP × "
+                              f"{DSP_PIXEL_SAMPLE_S[dsp]:g} s", ps * DSP_PIXEL_SAMPLE_S[dsp],
+                              "run.fidelity.dsp (or chip.dsp.mode), " + length))
+    if photons == "events":
+        sites = n_sites(s)
+        electrons = max_site_photons(s) * max_coupling(s) * c.pixel.qe * sites
+        drawn = min(electrons, EVENTS_DRAWN_MAX) if electrons <= EVENTS_DRAWN_MAX else 0.0
+        terms.append(CostTerm(
+            f"{frames} windows × {sites} site pixels × {EVENTS_WINDOW_S:g} s + ≈ {drawn:.3g} "
+            f"arrival times a window × {ARRIVAL_S:g} s",
+            frames * (sites * EVENTS_WINDOW_S + drawn * ARRIVAL_S),
+            f"run.fidelity.photons, sites.at_pixels, {length}"))
+    if kinetics == "cascade":
+        w = _windows(s)
+        terms.append(CostTerm(f"{w} windows of the cascade's stiff solver × "
+                              f"{CASCADE_WINDOW_S:g} s", w * CASCADE_WINDOW_S,
+                              "run.fidelity.kinetics, assay.n_flows"))
+    return terms
+
+
+def wall_seconds(s: Scenario) -> float:
+    """The estimate's total. Unit: s."""
+    return sum(t.seconds for t in wall_estimate(s))
+
+
+def disk_bytes(s: Scenario) -> int:
+    """What ``save_frames`` writes (``frames.npy``): 0 when it is off. Unit: bytes."""
+    if not s.run.save_frames:
+        return 0
+    c = s.chip
+    photons = _level(s, "photons", "binned", ("expected", "binned", "events"))
+    if photons == "expected":
+        per = 8 * c.n_pixels  # float64 means
+    else:
+        per = (2 if c.adc.bits <= 16 else 4) * c.samples_per_frame * c.n_pixels
+    return n_frames(s) * per
+
+
+def describe(s: Scenario) -> list[str]:
+    """The estimate as lines for ``chiptwin validate``."""
+    total = wall_seconds(s)
+    lines = [f"estimated wall time ≈ {format_seconds(total)} (limit run.max_wall_s = "
+             f"{format_seconds(s.run.max_wall_s)}; within {ESTIMATE_FACTOR:g}× either way):"]
+    lines += [f"  {t.seconds:9.3g} s  {t.what}" for t in wall_estimate(s) if t.seconds > 0]
+    if s.run.save_frames:
+        lines.append(f"save_frames writes ≈ {disk_bytes(s) / 1e9:.3g} GB (frames.npy)")
+    return lines
+
+
+def format_seconds(t: float) -> str:
+    if not math.isfinite(t):
+        return str(t)
+    if t < 120:
+        return f"{t:.3g} s"
+    if t < 7200:
+        return f"{t / 60:.3g} min"
+    return f"{t / 3600:.3g} h"
+
+
+def check_wall_time(s: Scenario) -> None:
+    """Refuse a run estimated past ``[run] max_wall_s`` (exit 2 from the CLI, an invalid point in
+    a study), naming the estimate, its largest term and the key that raises the limit."""
+    terms = wall_estimate(s)
+    total = sum(t.seconds for t in terms)
+    if total <= s.run.max_wall_s:
+        return
+    big = max(terms, key=lambda t: t.seconds)
+    raise ScenarioError(
+        s.source, "run.max_wall_s", s.run.max_wall_s,
+        f"the run is estimated at ≈ {format_seconds(total)} (most of it {big.what} = "
+        f"{format_seconds(big.seconds)}; set by {big.keys}); raise run.max_wall_s (e.g. "
+        f"--set run.max_wall_s={math.ceil(2 * total)}) or make those smaller")
+
+
+def check_disk(s: Scenario, out: Path) -> None:
+    """Refuse ``save_frames`` when ``frames.npy`` would not fit on the output folder's disk."""
+    need = disk_bytes(s)
+    if not need:
+        return
+    folder = next((p for p in [out, *out.parents] if p.exists()), Path("."))
+    free = shutil.disk_usage(folder).free
+    if need + DISK_MARGIN_BYTES > free:
+        raise ScenarioError(s.source, "run.save_frames", True,
+                            f"frames.npy would take ≈ {need / 1e9:.3g} GB, the disk of {folder} "
+                            f"has {free / 1e9:.3g} GB free; free some, choose another --out, "
+                            "or set run.save_frames = false")
+
+
+__all__ = ["CostTerm", "check_disk", "check_wall_time", "describe", "disk_bytes",
+           "wall_estimate", "wall_seconds"]

@@ -1,0 +1,87 @@
+"""The time and disk estimate before a run (issue 22, item 3): its terms count what the run does,
+a run past ``[run] max_wall_s`` or past the free disk is refused naming the key that raises the
+limit, and the estimate is within :data:`~chiptwin.config.cost.ESTIMATE_FACTOR` of the wall
+time measured on two bundled scenes (a factor, never a timing bound that could flake)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+
+from chiptwin.cli import main
+from chiptwin.config import ScenarioError, cost, load_scenario
+from chiptwin.config.catalog import resolve_scenario
+from tests.conftest import REDUCED
+
+
+def scene(name: str, *sets: str):
+    return load_scenario(resolve_scenario(name), [*REDUCED.get(name, []), *sets])
+
+
+def terms(s) -> dict[str, float]:
+    return {t.what.split(" × ")[0]: t.seconds for t in cost.wall_estimate(s)}
+
+
+def test_the_terms_count_what_the_run_does():
+    s = scene("pyro_1fmol")
+    c = s.chip
+    frames = cost.n_frames(s)
+    assert frames == 500
+    est = cost.wall_estimate(s)
+    ps = next(t for t in est if "pixel-samples (binned)" in t.what)
+    assert ps.seconds == pytest.approx(frames * c.n_pixels * c.samples_per_frame
+                                       * cost.PIXEL_SAMPLE_S["binned"])
+    assert not any("DSP" in t.what or "arrival" in t.what or "cascade" in t.what for t in est)
+    fixed = cost.wall_estimate(scene("pyro_1fmol", "run.fidelity.dsp=fixed"))
+    assert any("fixed DSP" in t.what for t in fixed)
+    events = cost.wall_estimate(scene("pyro_1fmol", "run.fidelity.photons=events"))
+    assert any("site pixels" in t.what for t in events)
+    cascade = cost.wall_estimate(scene("pyro_1fmol", "run.fidelity.kinetics=cascade"))
+    assert any("8 windows of the cascade" in t.what for t in cascade)
+    # twice the frames, about twice the time
+    longer = scene("pyro_1fmol", "run.duration_s=1000.0")
+    fixed_part = cost.RUN_S
+    assert cost.wall_seconds(longer) - fixed_part == pytest.approx(
+        2 * (cost.wall_seconds(s) - fixed_part))
+
+
+def test_a_run_past_max_wall_s_is_refused_naming_the_key(capsys):
+    with pytest.raises(ScenarioError, match=r"run.max_wall_s = 1.0.*estimated at.*raise "
+                                            r"run.max_wall_s"):
+        scene("ccd_two_wells", "run.max_wall_s=1.0")
+    assert main(["run", "ccd_two_wells", "--set", "run.max_wall_s=1", "--quiet",
+                 "--out", "/nonexistent/never"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "run.max_wall_s" in err[0]
+    assert scene("ccd_two_wells").run.max_wall_s == 3600.0  # the stated default
+
+
+def test_save_frames_past_the_free_disk_is_refused(tmp_path, monkeypatch):
+    s = scene("pyro_1fmol", "run.save_frames=true")
+    assert cost.disk_bytes(s) == 500 * 2 * s.chip.samples_per_frame * s.chip.n_pixels
+    cost.check_disk(s, tmp_path / "out")  # fits
+    import shutil
+
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: shutil._ntuple_diskusage(1, 1, 1000))
+    with pytest.raises(ScenarioError, match=r"run.save_frames.*GB"):
+        cost.check_disk(s, tmp_path / "out")
+    assert cost.disk_bytes(replace(s, run=replace(s.run, save_frames=False))) == 0
+
+
+def test_validate_prints_the_estimate(capsys):
+    assert main(["validate", "pyro_1fmol"]) == 0
+    out = capsys.readouterr().out
+    assert "estimated wall time" in out and "run.max_wall_s" in out
+
+
+@pytest.mark.parametrize("name", ["pyro_1fmol", "crosstalk_microarray"])
+def test_the_estimate_is_within_its_factor_of_measured_wall_time(name):
+    from chiptwin.fidelity import run
+
+    s = scene(name)
+    run(s)  # warm: compiled kernels loaded, as the calibration measured
+    measured = run(s).summary["wall_time_s"]
+    estimate = cost.wall_seconds(s)
+    assert measured / cost.ESTIMATE_FACTOR <= estimate <= measured * cost.ESTIMATE_FACTOR, (
+        f"{name}: estimate {estimate:.3g} s, measured {measured:.3g} s")
