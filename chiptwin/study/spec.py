@@ -152,9 +152,46 @@ class Study:
         return Point(point_id(params), params, p.given, (), reference=True)
 
 
-_STUDY_KEYS = {"name", "description", "scenario", "seed", "replicates", "vary_chip",
-               "reference", "set", "search", "batch", "verify", "axis", "metric", "requirement"}
-_AXIS_KEYS = {"key", "values", "range", "scale", "n", "given", "zip"}
+#: Every key of ``[study]`` with what it means, its range and its default: the loader accepts
+#: exactly these keys, and the documentation's study-file reference is generated from this table.
+STUDY_KEYS: dict[str, str] = {
+    "name": "required; letters, digits, '_', '-', '.'; names the output folder (out/<name>)",
+    "description": "optional text; default \"\"",
+    "scenario": "required; a bundled scenario name, or a TOML path relative to the study file",
+    "seed": "required; integer in [0, 2^63 − 1]; the root of every row's seed",
+    "replicates": f"required; integer in [1, {MAX_REPLICATES}]; runs per point (the cap per point "
+                  "with search = \"bisect\")",
+    "vary_chip": "true or false, default false; true: every replicate is another chip "
+                 "(PRNU/DSNU redrawn), false: one chip from the study seed",
+    "reference": "inline table of scenario keys, default {}; the ideal point that snr_loss_db "
+                 "is measured against",
+    "set": "inline table of scenario keys, default {}; overrides applied to every point",
+    "search": "\"grid\" (default: every point) or \"bisect\" (the one budget axis, sequential "
+              "looks)",
+    "batch": f"integer in [1, {MAX_REPLICATES}], default 10; replicates added per look (bisect)",
+    "verify": "integer in [0, 10], default 1; points above a bisect answer re-checked for "
+              "monotonicity",
+    "axis": "[[study.axis]] tables, at least one; cheapest and most significant first",
+    "metric": "[[study.metric]] tables with one key, name (a metric of the catalogue), at least "
+              "one",
+    "requirement": "table metric = \"<= x\" or \">= x\", plus confidence in [0.5, 0.9999] "
+                   "(default 0.95), the one-sided level of every bound",
+}
+#: Every key of a ``[[study.axis]]`` table (see :data:`STUDY_KEYS`).
+AXIS_KEYS: dict[str, str] = {
+    "key": 'required; a scenario key, e.g. "chip.adc.bits" (an [assay] key of the base '
+           "scenario's kind)",
+    "values": f"a list of 1 to {MAX_AXIS_VALUES} distinct values, cheapest first (exactly one of "
+              "values or range)",
+    "range": "[lo, hi], two finite numbers with lo < hi (exactly one of values or range)",
+    "scale": "with range: \"lin\" or \"log\" (with n), or \"int\" (every integer from lo to hi)",
+    "n": f"with scale lin or log: integer in [2, {MAX_AXIS_VALUES}], the number of values",
+    "given": "true or false, default false; true: a condition with one answer per value, not "
+             "a budget",
+    "zip": "true or false, default false; zipped axes advance together (same number of values)",
+}
+_STUDY_KEYS = set(STUDY_KEYS)
+_AXIS_KEYS = set(AXIS_KEYS)
 
 
 def load_study(path: str | Path, resolve_scenario=None) -> Study:
