@@ -252,8 +252,8 @@ def disc_profile(profile: RadialProfile, radius_um: float, *, atol: float) -> Ra
     ``P_disc(ρ) = (1/πa²) ∫_{|ρ−a|}^{ρ+a} P(r)·chord(r) dr`` (integration by parts of the
     lens-area overlap of the circle ``ρ`` and the disc ``a``), evaluated at the point profile's
     nodes shifted to cover ``[0, ρ_last + a]``, with the substitution ``r = m − h cos τ`` that
-    removes the chord's square-root ends; the τ node count doubles from 16 until two levels agree within
-    ``atol`` everywhere.
+    removes the chord's square-root ends; the τ node count doubles from 16 until two levels
+    agree within ``atol`` everywhere.
     """
     rho = np.concatenate([profile.rho_um, profile.rho_um[-1] + radius_um * np.linspace(
         0, 1, 65)[1:]])
