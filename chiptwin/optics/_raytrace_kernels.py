@@ -9,7 +9,9 @@ Outcome codes (one per ray, so transmitted + reflected out + absorbed = emitted,
 ``0 … n_pixels−1`` the pixel whose diode absorbed the ray, then ``n_pixels +`` :data:`SILICON`
 (absorbed in silicon outside every diode), :data:`TOP` (left upwards through the site plane),
 :data:`WALL` (absorbed by a well wall), :data:`TRUNCATED` (still bouncing after ``max_events``
-interactions) and :data:`LAYER` ``+ i`` (absorbed in layer ``i``).
+interactions) and :data:`LAYER` ``+ i`` (absorbed in layer ``i``); with a fibre faceplate below
+the last layer, ``LAYER + n_layers`` (absorbed in the faceplate: outside its acceptance, or on the
+cladding and extramural absorber, the share ``1 − open_area``).
 """
 
 from __future__ import annotations
@@ -88,6 +90,7 @@ def trace_chunk(
     gen, out, site_x, site_y, foot_shape, foot_size, emitter, pol_mode,
     n_layer, z_bottom, z_top, alpha, n_si, walls, well_half,
     n_rows, n_cols, pitch, half_w, half_h, max_events,
+    fp_na=0.0, fp_pitch=0.0, fp_open=1.0,
 ):
     """Trace ``out.size`` rays from one site; write each ray's outcome code into ``out``.
 
@@ -96,6 +99,14 @@ def trace_chunk(
     half and half when ``pol_mode`` is 0, else :data:`POL_AVERAGE`), reflection against
     transmission at each interface (Russian roulette on the Fresnel R), the Beer–Lambert free path
     in each absorbing layer and, at the diode plane, reflection against absorption in silicon.
+
+    Faceplate (``fp_na > 0``): the plane below the last layer is the faceplate's top face, and
+    ``n_si`` the index of its cores (the last layer's own index for no Fresnel loss). A ray
+    transmitted into it with Snell's invariant ``n·sinθ ≤ fp_na`` is carried straight down to the
+    diode plane with probability ``fp_open`` (the cores' share of the face), its lateral position
+    kept plus a uniform jitter over one fibre pitch ``fp_pitch`` (its place inside the fibre is
+    lost); every other ray is absorbed in the faceplate. No draw is made without a faceplate, so
+    the streams of a stack without one are unchanged.
     """
     n_layers = n_layer.size
     n_pix = n_rows * n_cols
@@ -168,6 +179,13 @@ def trace_chunk(
                 dz = -dz
                 continue
             if down and i == n_layers - 1:
+                if fp_na > 0.0:
+                    invariant = n_layer[i] * math.sqrt(max(0.0, 1.0 - dz * dz))
+                    if invariant > fp_na or gen.random() >= fp_open:
+                        code = n_pix + LAYER + n_layers
+                        break
+                    x += fp_pitch * (gen.random() - 0.5)
+                    y += fp_pitch * (gen.random() - 0.5)
                 p = _pixel_code(x, y, n_rows, n_cols, pitch, half_w, half_h)
                 code = n_pix + SILICON if p < 0 else p
                 break

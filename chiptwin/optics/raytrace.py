@@ -15,7 +15,12 @@ ends in exactly one place:
 * **a wall**: absorbed by an absorbing well wall (a square well of side ``well_side_um`` centred
   on the site, its walls spanning the first layer from its lower interface up to the site plane);
 * **truncated**: still bouncing after ``max_events`` interactions (0 in every stack whose silicon
-  has the highest index, since light can then always leave into it; reported, never hidden).
+  has the highest index, since light can then always leave into it; reported, never hidden);
+* **the faceplate** (when one is given): absorbed in a fibre-optic faceplate below the last layer,
+  outside its acceptance ``n·sinθ ≤ na`` or on its cladding (``1 − open_area_ratio``). Accepted
+  rays go straight down to the diode plane, jittered uniformly over one fibre pitch (the model of
+  :mod:`chiptwin.optics.faceplate`, traced; the Fresnel loss into the cores, ``core_n``, with
+  the multiple reflections it starts, comes on top of the ``psf`` level's single pass).
 
 Physics per interaction (analog Monte Carlo, every ray weight 1, every choice a draw):
 Snell's law (the tangential component scales by ``n1/n2``), Fresnel reflectance with total
@@ -57,6 +62,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from chiptwin import __version__, _checks
 from chiptwin.optics import _raytrace_kernels as _k
+from chiptwin.optics.faceplate import Faceplate
 from chiptwin.optics.layers import Stack
 from chiptwin.optics.psf import _check_grid, _footprint, _sites
 
@@ -106,6 +112,8 @@ class RaytraceResult:
         Main-run throughput (that of the original run for a cache hit). Unit: rays/s.
     cached : bool
         True when read from the cache.
+    faceplate : bool
+        True when traced with a faceplate (its absorption is the last outcome column).
     """
 
     coupling: NDArray[np.float64]
@@ -115,6 +123,7 @@ class RaytraceResult:
     seconds: float
     rays_per_s: float
     cached: bool = False
+    faceplate: bool = False
 
     def _share(self, offset: int) -> NDArray[np.float64]:
         n_pix = self.coupling.shape[0]
@@ -144,7 +153,15 @@ class RaytraceResult:
     def absorbed_layers(self) -> NDArray[np.float64]:
         """Per site and layer ``(n_sites, n_layers)``: fraction absorbed in each layer."""
         n_pix = self.coupling.shape[0]
-        return self.counts[:, n_pix + _k.LAYER:] / self.n_rays[:, None]
+        stop = self.counts.shape[1] - (1 if self.faceplate else 0)
+        return self.counts[:, n_pix + _k.LAYER:stop] / self.n_rays[:, None]
+
+    @property
+    def absorbed_faceplate(self) -> NDArray[np.float64]:
+        """Per site: fraction absorbed in the faceplate (0 without one)."""
+        if not self.faceplate:
+            return np.zeros(self.n_rays.size)
+        return self.counts[:, -1] / self.n_rays
 
     @property
     def transmitted(self) -> NDArray[np.float64]:
@@ -222,14 +239,15 @@ def _cache_get(folder: Path, key: str) -> RaytraceResult | None:
         return None
     with np.load(path) as f:
         return RaytraceResult(f["coupling"], f["stderr"], f["n_rays"], f["counts"], 0.0,
-                              float(f["rays_per_s"]), cached=True)
+                              float(f["rays_per_s"]), cached=True,
+                              faceplate=bool(f["faceplate"]) if "faceplate" in f else False)
 
 
 def _cache_put(folder: Path, key: str, r: RaytraceResult) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     tmp = folder / f"{key}.{os.getpid()}.tmp.npz"
     np.savez(tmp, coupling=r.coupling, stderr=r.stderr, n_rays=r.n_rays, counts=r.counts,
-             rays_per_s=r.rays_per_s)
+             rays_per_s=r.rays_per_s, faceplate=r.faceplate)
     tmp.replace(folder / f"{key}.npz")
 
 
@@ -302,6 +320,8 @@ def raytrace(
     chunk_rays: int = CHUNK_RAYS,
     workers: int = 1,
     cache: bool | Path = True,
+    faceplate: Faceplate | None = None,
+    cache_tag: str | int | None = None,
 ) -> RaytraceResult:
     """Site-to-pixel coupling by Monte Carlo ray tracing through a planar stack.
 
@@ -338,6 +358,13 @@ def raytrace(
         False: always trace. True: the cache folder :func:`cache_dir`. A Path: that folder.
         The key is everything above but ``rng`` and ``workers``: a hit returns the stored
         estimate whatever the seed.
+    faceplate : Faceplate, optional
+        A fibre-optic faceplate below the last layer, directly on the diodes (its top face is
+        the stack's lower plane; ``stack.silicon_n`` is then unused: the rays enter the cores,
+        of index ``core_n``, or of the last layer's index when ``core_n`` is None).
+    cache_tag : str or int, optional
+        Added to the cache key: the seed of a caller that wants one matrix per seed (the twin
+        passes ``optics.raytrace_seed``).
 
     Returns
     -------
@@ -362,19 +389,31 @@ def raytrace(
     workers = _int_in("workers", workers, 1, 256)
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng = {rng!r}: must be a numpy.random.Generator")
+    if faceplate is not None and not isinstance(faceplate, Faceplate):
+        raise TypeError(f"faceplate = {faceplate!r}: must be a chiptwin.optics.Faceplate")
 
     spec = {"stack": dataclasses.asdict(stack), "grid": [rows, cols, pitch, diode_w_um,
             diode_h_um], "sites": [sx.tolist(), sy.tolist()], "footprint": [shape, size],
             "emitter": emitter, "walls": [walls if well_side_um is not None else None,
             well_side_um], "polarisation": polarisation, "rays": rays if rays else rel,
             "max_events": max_events, "pilot": pilot_rays, "chunk": chunk_rays}
+    if faceplate is not None:
+        spec["faceplate"] = dataclasses.asdict(faceplate)
+    if cache_tag is not None:
+        spec["tag"] = cache_tag
     folder = None if cache is False else cache_dir() if cache is True else Path(cache)
     key = _cache_key(spec)
     if folder is not None and (hit := _cache_get(folder, key)) is not None:
         return hit
 
     foot = {"point": _k.FOOT_POINT, "disc": _k.FOOT_DISC, "square": _k.FOOT_SQUARE}[shape]
-    n_codes = rows * cols + _k.LAYER + n.size
+    n_codes = rows * cols + _k.LAYER + n.size + (1 if faceplate is not None else 0)
+    if faceplate is None:
+        n_below, fp = float(stack.silicon_n), (0.0, 0.0, 1.0)
+    else:
+        n_below = float(faceplate.core_n if faceplate.core_n is not None else n[-1])
+        fp = (float(faceplate.na), float(faceplate.fiber_pitch_um),
+              float(faceplate.open_area_ratio))
     pilot_root, main_root = np.random.SeedSequence(rng.integers(0, 2**63, size=4)).spawn(2)
     pilot_seqs, main_seqs = pilot_root.spawn(sx.size), main_root.spawn(sx.size)
     counts = np.zeros((sx.size, n_codes), dtype=np.int64)
@@ -382,9 +421,9 @@ def raytrace(
     seconds = 0.0
     for s in range(sx.size):
         args = (float(sx[s]), float(sy[s]), foot, float(size), emit, pol, n, bottom, top, alpha,
-                float(stack.silicon_n), wall if math.isfinite(half_well) else _k.WALLS_NONE,
+                n_below, wall if math.isfinite(half_well) else _k.WALLS_NONE,
                 half_well if math.isfinite(half_well) else 0.0, rows, cols, pitch,
-                0.5 * float(diode_w_um), 0.5 * float(diode_h_um), max_events)
+                0.5 * float(diode_w_um), 0.5 * float(diode_h_um), max_events, *fp)
         per_site[s] = rays if rays else _pilot_rays(args, n_codes, pilot_rays, pilot_seqs[s],
                                                     chunk_rays, workers, rel, (sx[s], sy[s]),
                                                     (rows, cols, pitch))
@@ -395,7 +434,8 @@ def raytrace(
     coupling = (counts[:, : rows * cols] / per_site[:, None]).T
     stderr = np.sqrt(coupling * (1.0 - coupling) / per_site[None, :])
     result = RaytraceResult(coupling, stderr, per_site, counts, seconds,
-                            float(per_site.sum()) / max(seconds, 1e-12))
+                            float(per_site.sum()) / max(seconds, 1e-12),
+                            faceplate=faceplate is not None)
     if folder is not None:
         _cache_put(folder, key, result)
     return result
