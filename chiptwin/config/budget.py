@@ -162,9 +162,29 @@ def max_coupling(s: Scenario) -> float:
         return 1.0
     if o.coupling == "lens":
         eff = optics.collection_efficiency(o.aperture_diameter_um, o.object_distance_um,
-                                           convention=o.convention)
+                                           convention=o.closed_form_convention)
         return float(eff) * o.transmission
-    return optics.plane_fraction(o.convention) * o.transmission
+    return optics.plane_fraction(o.closed_form_convention) * o.transmission
+
+
+def raytrace_rays_estimate(s: Scenario) -> float:
+    """Rays the raytrace level traces for this scene (pilot included), from the one-medium
+    closed form of the own pixel's share (times the faceplate's acceptance and open area): the
+    rule ``N = (1 − p)/(p·rel²)`` of :func:`chiptwin.optics.raytrace.rays_for_error` per site."""
+    from chiptwin import optics
+    from chiptwin.optics.raytrace import PILOT_RAYS
+
+    o, px = s.optics, s.chip.pixel
+    hw, hh = 0.5 * px.diode_w_um, 0.5 * px.diode_h_um
+    p = float(optics.point_rectangle_fraction(-hw, hw, -hh, hh, s.sites.height_um,
+                                              convention=o.closed_form_convention))
+    if o.faceplate.present:
+        n_top = float(o.layers[0]["n"]) if o.layers else 1.33
+        p *= o.faceplate.open_area_ratio * min(1.0, o.faceplate.na / n_top) ** 2
+    p = min(max(p, 1e-12), 1.0)
+    rel = o.raytrace_rel_error
+    sites = 1 if not coupling_is_dense(s.chip.n_pixels, n_sites(s)) else n_sites(s)
+    return sites * ((1.0 - p) / (p * rel * rel) + PILOT_RAYS)
 
 
 def _counts(s: Scenario) -> None:
@@ -267,7 +287,7 @@ def _kernel_radius(s: Scenario) -> int:
     def share(offset_um: float) -> float:
         x = max(offset_um, 0.0)
         return float(point_rectangle_fraction(x - hw, x + hw, -hh, hh, s.sites.height_um,
-                                              convention=s.optics.convention))
+                                              convention=s.optics.closed_form_convention))
 
     centre, radius = share(0.0), 2
     while share(radius * c.pitch_um - s.sites.footprint_radius_um) >= (
