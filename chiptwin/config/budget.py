@@ -38,6 +38,12 @@ from chiptwin.limits import (
     frames_per_block,
 )
 
+#: Peak of the stack psf (``chiptwin.optics.coupling_stack``'s tabulated radial profile, its disc
+#: convolution and quadrature temporaries), per emitter law of ``summary['optics']``: measured
+#: 35 MiB (tracemalloc) for pyro_1fmol's two-layer stack with its 20 µm disc, 18 MiB for
+#: crosstalk_microarray and jssc2006_faceplate; one run makes them one after the other. Unit: B.
+STACK_PSF_BYTES: int = 48 << 20
+
 #: Default memory budget of one run. Unit: GiB.
 MEMORY_BUDGET_GIB: float = 8.0
 
@@ -324,6 +330,10 @@ def memory_estimate(s: Scenario) -> list[MemoryTerm]:
     terms.append(MemoryTerm(f"the DSP's largest job, {job} frames × {pixels} pixels × {stacked} B "
                             "(codes stacked for CMS)", job * pixels * stacked,
                             f"chip.dsp.n_dark_frames, {size}, chip.dsp.cms_samples"))
+    if s.assay.kind != "flux" and s.optics.coupling == "contact" and s.optics.stated_stack:
+        terms.append(MemoryTerm("the stack psf's profile and quadrature (the psf level through "
+                                "a stated stack, the summary's per-law figures)",
+                                STACK_PSF_BYTES, "optics.layers"))
     if coupling_is_dense(pixels, sites):
         terms.append(MemoryTerm(f"coupling {pixels} pixels × {sites} sites × "
                                 f"{DENSE_COUPLING_BYTES} B", pixels * sites * DENSE_COUPLING_BYTES,

@@ -217,7 +217,9 @@ LAYER_KEYS = ("name", "n", "thickness_um", "alpha_per_um", "k")
 
 def _optics_layers(s: Scenario) -> None:
     """Each layer a table ``{name, n, thickness_um, alpha_per_um | k}`` in range; the stack
-    (plus a faceplate) as high as ``sites.height_um``."""
+    (plus a faceplate) as high as ``sites.height_um``. The first layer (the solution from the
+    site down) may leave out ``thickness_um``: it then fills ``sites.height_um`` above the
+    others, so ``--set sites.height_um=…`` moves the site within its solution."""
     from chiptwin.optics.layers import ALPHA_MAX_PER_UM, N_RANGE, THICKNESS_RANGE_UM
 
     o = s.optics
@@ -238,7 +240,7 @@ def _optics_layers(s: Scenario) -> None:
                  ("k", (0.0, 10.0), "extinction coefficient; 0 … 10, above any metal's"))
         for name, (lo, hi), why in rules:
             if name not in layer:
-                if name in ("n", "thickness_um"):
+                if name == "n" or (name == "thickness_um" and i > 0):
                     _fail(s, f"{key}.{name}", _MISSING, f"is required ({why})")
                 continue
             v = layer[name]
@@ -253,8 +255,15 @@ def _optics_layers(s: Scenario) -> None:
                   f"optics.wavelength_nm = {o.wavelength_nm:g}")
     if not o.layers:
         return
-    total = sum(float(layer["thickness_um"]) for layer in o.layers)
     fp = o.faceplate.thickness_um if o.faceplate.present else 0.0
+    below = sum(float(layer["thickness_um"]) for layer in o.layers[1:]) + fp
+    if "thickness_um" not in o.layers[0]:  # the solution fills the site height
+        if below >= s.sites.height_um:
+            _fail(s, "sites.height_um", s.sites.height_um,
+                  f"must be above the layers below the site's solution ({below:g} µm: "
+                  "optics.layers[1:] and the faceplate): the solution fills the rest")
+        return
+    total = sum(float(layer["thickness_um"]) for layer in o.layers)
     if not abs(total + fp - s.sites.height_um) <= 1e-9 * max(s.sites.height_um, 1.0):
         plus = f" plus the faceplate's {fp:g} µm" if fp else ""
         _fail(s, "optics.layers", f"{total:g} µm in all",

@@ -185,7 +185,8 @@ class Optics:
     may set either; both, only if they agree). ``layers`` is the planar stack from the site down
     to the diodes (or to the faceplate's top), an array of tables ``{name, n, thickness_um,
     alpha_per_um | k}`` top to bottom; rule: the thicknesses (plus the faceplate's) sum to
-    ``sites.height_um``, which stays the one site height every level reads.
+    ``sites.height_um``, which stays the one site height every level reads; the first layer (the
+    solution the site sits in) may leave out its thickness, and then fills the height.
     """
 
     coupling: str = param("contact", choices=("contact", "lens"))
@@ -204,7 +205,7 @@ class Optics:
         [], kind=list,
         doc="the planar stack from the site down, top to bottom: tables {name, n, thickness_um, "
             "alpha_per_um or k}; [] = one medium of sites.height_um; thicknesses (plus a "
-            "faceplate's) sum to sites.height_um")
+            "faceplate's) sum to sites.height_um, or the first leaves it out and fills it")
     wavelength_nm: float = param(
         562.0, lo=200.0, hi=1200.0,
         doc="nm; turns a layer's k into alpha_per_um = 4πk/λ; the paper's 562 nm peak; 200 … "

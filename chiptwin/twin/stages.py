@@ -188,14 +188,17 @@ DEFAULT_MEDIUM_N = 1.33
 
 def optics_stack(s: Scenario) -> optics.Stack:
     """The scenario's planar stack (:class:`chiptwin.optics.Stack`): ``[optics] layers`` (``k``
-    as ``alpha_per_um = 4πk/λ``), or one medium of ``sites.height_um``; the silicon's index
+    as ``alpha_per_um = 4πk/λ``; a first layer without ``thickness_um`` fills the site height
+    above the others and the faceplate), or one medium of ``sites.height_um``; the silicon's index
     ``silicon_n``, or (0: the diode plane absorbs all) the last layer's own index, so that no
     light is reflected there."""
     o = s.optics
     if o.layers:
         lam_um = o.wavelength_nm * 1e-3
+        fp = o.faceplate.thickness_um if o.faceplate.present else 0.0
+        fill = s.sites.height_um - fp - sum(float(t["thickness_um"]) for t in o.layers[1:])
         layers = tuple(optics.Layer(
-            str(t.get("name", f"layer {i}")), float(t["n"]), float(t["thickness_um"]),
+            str(t.get("name", f"layer {i}")), float(t["n"]), float(t.get("thickness_um", fill)),
             float(t["alpha_per_um"]) if "alpha_per_um" in t else
             4.0 * math.pi * float(t.get("k", 0.0)) / lam_um) for i, t in enumerate(o.layers))
     else:
@@ -232,7 +235,7 @@ def _optics_grid(s: Scenario, rows: np.ndarray, cols: np.ndarray, rc: np.ndarray
     if level == "na2":
         return optics.coupling_na2(**grid, height_um=s.sites.height_um,
                                    convention=o.closed_form_convention)
-    if not o.stated_stack:
+    if not o.stated_stack or o.law == "lambertian_na2":  # the convention: one medium
         return optics.coupling_psf(**grid, height_um=s.sites.height_um,
                                    convention=o.closed_form_convention,
                                    site_radius_um=s.sites.footprint_radius_um)

@@ -159,6 +159,16 @@ def test_good_optics_keys_validate(tmp_path):
     assert code == 0, err
 
 
+def test_the_solution_fills_the_site_height():
+    """A first layer without thickness_um fills sites.height_um above the others: a bundled
+    scene's height can still be set on the command line (the site moves in its solution)."""
+    s = load_scenario(SCENARIOS / "pyro_1fmol.toml", ["sites.height_um=150"])
+    stack = stages.optics_stack(s)
+    assert [layer.thickness_um for layer in stack.layers] == [136.0, 14.0]
+    with pytest.raises(Exception, match="sites.height_um"):
+        load_scenario(SCENARIOS / "pyro_1fmol.toml", ["sites.height_um=10"])
+
+
 def test_jssc2006_faceplate_runs_and_reports(tmp_path):
     """The reference chip on its faceplate: the run reports own pixel and cross-talk with the
     faceplate against the same solution directly on the diodes (summary and report.md)."""
