@@ -319,7 +319,7 @@ def _optics_stack_levels(s: Scenario) -> None:
         _fail(s, "optics.walls", o.walls,
               "well walls are traced at the raytrace level only; set run.fidelity.optics = "
               "\"raytrace\" (or walls = \"none\")")
-    if level == "raytrace" and s.assay.kind != "flux":
+    if level == "raytrace":
         _raytrace_needs(s)
 
 
@@ -334,6 +334,8 @@ def _raytrace_needs(s: Scenario) -> None:
               "traces physical emitter laws: set optics.emitter = \"isotropic\" or "
               "\"lambertian\" (lambertian_na2 is the paper's convention, which the psf level "
               "computes exactly)")
+    if s.assay.kind == "flux":  # light given at the sensor: nothing is traced
+        return
     from chiptwin.config.budget import raytrace_rays_estimate
 
     rays = raytrace_rays_estimate(s)
