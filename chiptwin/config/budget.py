@@ -40,6 +40,12 @@ from chiptwin.limits import (
     frames_per_block,
 )
 
+#: Peak of the stack psf (``chiptwin.optics.coupling_stack``'s tabulated radial profile, its disc
+#: convolution and quadrature temporaries), per emitter law of ``summary['optics']``: measured
+#: 35 MiB (tracemalloc) for pyro_1fmol's two-layer stack with its 20 µm disc, 18 MiB for
+#: crosstalk_microarray and jssc2006_faceplate; one run makes them one after the other. Unit: B.
+STACK_PSF_BYTES: int = 48 << 20
+
 #: Default memory budget of one run. Unit: GiB.
 MEMORY_BUDGET_GIB: float = 8.0
 
@@ -164,9 +170,29 @@ def max_coupling(s: Scenario) -> float:
         return 1.0
     if o.coupling == "lens":
         eff = optics.collection_efficiency(o.aperture_diameter_um, o.object_distance_um,
-                                           convention=o.convention)
+                                           convention=o.closed_form_convention)
         return float(eff) * o.transmission
-    return optics.plane_fraction(o.convention) * o.transmission
+    return optics.plane_fraction(o.closed_form_convention) * o.transmission
+
+
+def raytrace_rays_estimate(s: Scenario) -> float:
+    """Rays the raytrace level traces for this scene (pilot included), from the one-medium
+    closed form of the own pixel's share (times the faceplate's acceptance and open area): the
+    rule ``N = (1 − p)/(p·rel²)`` of :func:`chiptwin.optics.raytrace.rays_for_error` per site."""
+    from chiptwin import optics
+    from chiptwin.optics.raytrace import PILOT_RAYS
+
+    o, px = s.optics, s.chip.pixel
+    hw, hh = 0.5 * px.diode_w_um, 0.5 * px.diode_h_um
+    p = float(optics.point_rectangle_fraction(-hw, hw, -hh, hh, s.sites.height_um,
+                                              convention=o.closed_form_convention))
+    if o.faceplate.present:
+        n_top = float(o.layers[0]["n"]) if o.layers else 1.33
+        p *= o.faceplate.open_area_ratio * min(1.0, o.faceplate.na / n_top) ** 2
+    p = min(max(p, 1e-12), 1.0)
+    rel = o.raytrace_rel_error
+    sites = 1 if not coupling_is_dense(s.chip.n_pixels, n_sites(s)) else n_sites(s)
+    return sites * ((1.0 - p) / (p * rel * rel) + PILOT_RAYS)
 
 
 def _counts(s: Scenario) -> None:
@@ -269,7 +295,7 @@ def _kernel_radius(s: Scenario) -> int:
     def share(offset_um: float) -> float:
         x = max(offset_um, 0.0)
         return float(point_rectangle_fraction(x - hw, x + hw, -hh, hh, s.sites.height_um,
-                                              convention=s.optics.convention))
+                                              convention=s.optics.closed_form_convention))
 
     centre, radius = share(0.0), 2
     while share(radius * c.pitch_um - s.sites.footprint_radius_um) >= (
@@ -306,6 +332,10 @@ def memory_estimate(s: Scenario) -> list[MemoryTerm]:
     terms.append(MemoryTerm(f"the DSP's largest job, {job} frames × {pixels} pixels × {stacked} B "
                             "(codes stacked for CMS)", job * pixels * stacked,
                             f"chip.dsp.n_dark_frames, {size}, chip.dsp.cms_samples"))
+    if s.assay.kind != "flux" and s.optics.coupling == "contact" and s.optics.stated_stack:
+        terms.append(MemoryTerm("the stack psf's profile and quadrature (the psf level through "
+                                "a stated stack, the summary's per-law figures)",
+                                STACK_PSF_BYTES, "optics.layers"))
     if coupling_is_dense(pixels, sites):
         terms.append(MemoryTerm(f"coupling {pixels} pixels × {sites} sites × "
                                 f"{DENSE_COUPLING_BYTES} B", pixels * sites * DENSE_COUPLING_BYTES,

@@ -137,18 +137,116 @@ class Sites:
     )
 
 
+EMITTER_LAWS = ("isotropic", "lambertian", "lambertian_na2")
+"""The emitter's angular law (issue 18): molecules in solution emit isotropically; a Lambertian
+emitter faces the diodes; ``lambertian_na2`` is the paper's NA² convention (Salama et al. 2004,
+§3.1), kept by name to reproduce its figures."""
+
+INDEX_MIN, INDEX_MAX = 1.0, 4.5
+INDICES = "vacuum 1 … 4.5, above silicon's ≈ 4.1–4.3 at 470–560 nm (REFERENCE §2)"
+
+
+@dataclass(frozen=True)
+class FaceplateSection:
+    """``[optics.faceplate]``: a fibre-optic faceplate between the assay and the diodes (the JSSC
+    2006 chip's assays sit on one, REFERENCE §2–3). ``na = 0``: none."""
+
+    na: float = param(
+        0.0, lo=0.0, hi=2.0,
+        doc="numerical aperture in air; 0 = no faceplate; makers' datasheets 0.35 … 1.0 "
+            "(REFERENCE §2); ≤ 2, above any glass core's index")
+    fiber_pitch_um: float = param(
+        6.0, lo=LENGTH_MIN_UM, hi=1.0e3,
+        doc="µm between fibre centres, the blur of the light carried down; imaging faceplates "
+            "3 … 25 µm (choice 6); 0.1 µm … 1 mm")
+    thickness_um: float = param(
+        1000.0, lo=1.0, hi=1.0e5,
+        doc="µm; enters the site height (sites.height_um = layers + this); 1 µm … 10 cm")
+    open_area_ratio: float = param(
+        0.7, lo=0.0, hi=1.0, lo_open=True,
+        doc="the cores' share of the face; the cladding and extramural absorber take the rest "
+            "(choice 0.7)")
+    core_n: float = param(
+        0.0, lo=0.0, hi=INDEX_MAX,
+        doc="index of the fibre cores for the Fresnel loss at the entry; 0 = no loss; else "
+            + INDICES)
+
+    @property
+    def present(self) -> bool:
+        """True when the scenario states a faceplate (``na > 0``)."""
+        return self.na > 0.0
+
+
 @dataclass(frozen=True)
 class Optics:
-    """``[optics]``: how emitted light reaches the diodes (REFERENCE §2)."""
+    """``[optics]``: how emitted light reaches the diodes (REFERENCE §2).
+
+    ``emitter`` names the angular law; ``convention`` is its older name, kept as an alias (a file
+    may set either; both, only if they agree). ``layers`` is the planar stack from the site down
+    to the diodes (or to the faceplate's top), an array of tables ``{name, n, thickness_um,
+    alpha_per_um | k}`` top to bottom; rule: the thicknesses (plus the faceplate's) sum to
+    ``sites.height_um``, which stays the one site height every level reads; the first layer (the
+    solution the site sits in) may leave out its thickness, and then fills the height.
+    """
 
     coupling: str = param("contact", choices=("contact", "lens"))
-    convention: str = param("lambertian_na2", choices=("lambertian_na2", "isotropic"))
+    emitter: str = param(
+        "", choices=("",) + EMITTER_LAWS,
+        doc='"" = convention (its older name); isotropic for molecules in solution')
+    convention: str = param("lambertian_na2", choices=("lambertian_na2", "isotropic"),
+                            doc="the emitter's law under its older name (alias of emitter)")
     transmission: float = param(1.0, lo=0.0, hi=1.0, lo_open=True, doc="extra optical loss")
     aperture_diameter_um: float = param(
         0.0, lo=0.0, hi=1.0e6, doc="µm; lens aperture D (lens coupling only); ≤ 1 m"
     )
     object_distance_um: float = param(
         0.0, lo=0.0, hi=1.0e7, doc="µm; sample-to-lens U (lens only); ≤ 10 m")
+    layers: list = param(
+        [], kind=list,
+        doc="the planar stack from the site down, top to bottom: tables {name, n, thickness_um, "
+            "alpha_per_um or k}; [] = one medium of sites.height_um; thicknesses (plus a "
+            "faceplate's) sum to sites.height_um, or the first leaves it out and fills it")
+    wavelength_nm: float = param(
+        562.0, lo=200.0, hi=1200.0,
+        doc="nm; turns a layer's k into alpha_per_um = 4πk/λ; the paper's 562 nm peak; 200 … "
+            "1200 nm, silicon's band")
+    silicon_n: float = param(
+        0.0, lo=0.0, hi=INDEX_MAX,
+        doc="0 = the diode plane absorbs what reaches it (the pixel's qe is then external, "
+            "surface reflection included); else the silicon's index (≈ 4.3 at 470–560 nm): "
+            "Fresnel into it, at the psf level single pass, traced at raytrace (use an internal "
+            "qe)")
+    raytrace_rel_error: float = param(
+        0.01, lo=1e-3, hi=0.2,
+        doc="relative standard error of each site's own-pixel entry at the raytrace level "
+            "(sets its rays); 0.1 % (≈ 1e7 rays per site) … 20 %")
+    raytrace_seed: int = param(
+        0, kind=int, lo=0, hi=2**63 - 1,
+        doc="seed of the raytrace level's rays: the matrix estimates the geometry, the same for "
+            "every scenario.seed (a study's replicates share it; cached per geometry and seed)")
+    walls: str = param(
+        "none", choices=("none", "absorbing", "reflecting"),
+        doc="well walls at the raytrace level (a square well of well_side_um around each site)")
+    well_side_um: float = param(0.0, lo=0.0, hi=LENGTH_MAX_UM,
+                                doc="µm; the well's side with walls; " + LENGTHS)
+    faceplate: FaceplateSection = field(default_factory=FaceplateSection)
+
+    @property
+    def law(self) -> str:
+        """The emitter's angular law in force: ``emitter``, else ``convention``."""
+        return self.emitter or self.convention
+
+    @property
+    def closed_form_convention(self) -> str:
+        """The one-medium closed forms' convention of :attr:`law` (``chiptwin.optics``): a
+        Lambertian emitter into a cone of half-angle θ is sin²θ = NA², the paper's convention."""
+        return "isotropic" if self.law == "isotropic" else "lambertian_na2"
+
+    @property
+    def stated_stack(self) -> bool:
+        """True when the scenario states more than one medium: layers, a faceplate or the
+        silicon's index (the psf level then goes through :func:`chiptwin.optics.coupling_stack`)."""
+        return bool(self.layers) or self.faceplate.present or self.silicon_n > 0.0
 
 
 @dataclass(frozen=True)

@@ -71,8 +71,11 @@ class Calibrations(CachedEstimates):
     def _optics(self, level: str) -> Estimate:
         est = self._calibrated("optics", level, f"calibration: the expected-level run at {level} "
                                f"against {self.ref['optics']}")
-        return Estimate(est.errors, est.how + f"; psf cross-talk at the site pixels "
-                        f"{_cross_talk_share(self.s):.3g} of their light")
+        how = est.how + (f"; psf cross-talk at the site pixels {_cross_talk_share(self.s):.3g} "
+                         "of their light")
+        if self.ref["optics"] == "raytrace":
+            how += "; " + _raytrace_note(with_levels(self.s, self.ref))
+        return Estimate(est.errors, how)
 
     def _calibrated(self, stage: str, level: str, how: str) -> Estimate:
         base = self._expected_levels()  # its stage is at the reference: that side is the base
@@ -229,6 +232,16 @@ def _rounding_bound_lsb(chain, m: int, k: int, n: int) -> float:
     background = cms + dark + (0.0 if exact_diff else 0.5 * 2.0 ** -chain.background.out_fmt
                                .frac_bits)
     return background + half_ulp(chain.average.out_fmt, n)
+
+
+def _raytrace_note(s: Scenario) -> str:
+    """The reference trace's own error, which a measured error against it includes."""
+    r = stages.raytrace_result(s)
+    idx = stages.site_pixel_indices(s)
+    own = r.coupling[idx, np.arange(len(idx))]
+    rel = np.max(r.stderr[idx, np.arange(len(idx))] / np.where(own > 0, own, np.inf))
+    return (f"raytrace reference {int(r.n_rays.min())}–{int(r.n_rays.max())} rays per site, "
+            f"own-pixel standard error ≤ {rel:.2%} (part of the measured error)")
 
 
 def _cross_talk_share(s: Scenario) -> float:

@@ -20,6 +20,8 @@ from chiptwin.optics.collection import (
     half_angle_rad,
     plane_fraction,
 )
+from chiptwin.optics.faceplate import Faceplate
+from chiptwin.optics.layers import Layer, Stack
 from chiptwin.optics.psf import (
     APERTURES,
     coupling_na2,
@@ -28,10 +30,23 @@ from chiptwin.optics.psf import (
     pixel_centers_um,
     point_rectangle_fraction,
 )
+from chiptwin.optics.stack_psf import (
+    EMITTERS,
+    collected_fractions,
+    coupling_stack,
+    plane_fraction_stack,
+)
 
 __all__ = [
     "APERTURES",
     "CONVENTIONS",
+    "EMITTERS",
+    "Faceplate",
+    "Layer",
+    "Stack",
+    "collected_fractions",
+    "coupling_stack",
+    "plane_fraction_stack",
     "ISOTROPIC",
     "LAMBERTIAN_NA2",
     "check_convention",

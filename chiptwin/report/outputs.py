@@ -257,6 +257,7 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
                      f"{d['lod_from_blank_spread_amol']:.3g} ± "
                      f"{d['lod_from_blank_spread_se_amol']:.2g} amol")
         rows.append(("limit of detection", text))
+    rows += _optics_rows(summary.get("optics"))
     c = summary.get("crosstalk", {})
     if c.get("before_db_median") is not None and c.get("after_db_median") is not None:
         rows.append(("cross-talk (median)", f"{c['before_db_median']:+.1f} dB before, "
@@ -299,3 +300,28 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
                      f"{e['bias_lsb']:.3g} LSB, SQNR {sqnr}"))
     rows += [("warning", w) for w in summary.get("warnings", [])]
     return rows
+
+
+def _optics_rows(o: dict[str, Any] | None) -> list[tuple[str, str]]:
+    """The optics lines of the headline: the run's own pixel and cross-talk, the emitter laws
+    when they differ beyond the budget, the faceplate against direct contact."""
+    if not o:
+        return []
+
+    def light(f: dict[str, Any]) -> str:
+        db = (f"{f['crosstalk_db']:+.1f} dB" if f["crosstalk_db"] is not None
+              else "none (< −120 dB)")
+        return f"own pixel {f['own_pixel']:.4g} of the site's light, cross-talk {db}"
+
+    rows = [(f"optics ({o['level']}, {o['emitter']} emitter)", light(o))]
+    if o.get("laws_differ_beyond_budget"):
+        rows.append(("collected by the diodes, per emitter law", ", ".join(
+            f"{law} {v:.4g}" for law, v in o["collected_fraction"].items())))
+    fp = o.get("faceplate")
+    if fp:
+        ratio = fp.get("own_pixel_ratio")
+        rows.append(("faceplate vs direct contact (psf)",
+                     f"with: {light(fp['with'])}; without: {light(fp['without'])}"
+                     + (f"; own pixel × {ratio:.3g}" if ratio else "")))
+    return rows
+

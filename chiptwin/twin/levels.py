@@ -5,7 +5,8 @@ error"). The error of a level is taken against the stage's most faithful level t
 (the ladder's reference, :func:`reference_levels`), figure by figure (the ones
 ``[run] error_budget`` names, :data:`chiptwin.config.schema.BUDGET_FIGURES`):
 
-* **kinetics** (closed_form vs cascade) and **optics** (na2 vs psf): a calibration, the scene
+* **kinetics** (closed_form vs cascade) and **optics** (na2 and psf vs raytrace where the scene
+  accepts it, else na2 vs psf): a calibration, the scene
   run at the ``expected`` photon level (no draws, so the difference is the level's systematic
   error, exact on this scene) at both levels. Cached per scene hash in SQLite
   (``$XDG_CACHE_HOME/chiptwin/fidelity.sqlite``), so it is paid once. The optics reason also
@@ -61,11 +62,12 @@ from chiptwin.config import Scenario, ScenarioError
 from chiptwin.config.consistency import check_consistency
 from chiptwin.config.schema import BUDGET_FIGURES
 
-#: The levels of each stage, cheapest first (raytrace is not built: the ladder skips it).
+#: The levels of each stage, cheapest first (the last is the reference where the scene accepts it:
+#: optics ``raytrace`` needs contact imaging and a physical emitter law, else ``psf``).
 LEVELS: dict[str, tuple[str, ...]] = {
     "kinetics": ("closed_form", "cascade"),
     "photons": ("expected", "binned", "events"),
-    "optics": ("na2", "psf"),
+    "optics": ("na2", "psf", "raytrace"),
     "shot": ("gaussian", "poisson"),
     "dsp": ("float", "fixed", "rtl"),
 }

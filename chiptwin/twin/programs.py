@@ -78,9 +78,14 @@ def grid_coupling(s: Scenario) -> np.ndarray:
     """(n_pixels, n_pixels): the coupling of a site above every pixel (the system PSF sampled on
     the array), with the scenario's height, footprint and optics, without the transmission: a
     scalar loss the equalizer's normalisation (each cell at its own gain) removes anyway, and
-    which could underflow the matrix."""
+    which could underflow the matrix. At the raytrace level the equalizer is still designed
+    from the psf level's matrix (the paper's "modelled system PSF", §3.3), while the light
+    follows the traced one: the model's error is then part of what the run measures."""
     every = replace(s, sites=replace(s.sites, at_pixels="all"),
                     optics=replace(s.optics, transmission=1.0))
+    if s.run.fidelity.optics == "raytrace":  # the DSP's model of the PSF is the psf level's
+        every = replace(every, run=replace(every.run, fidelity=replace(
+            every.run.fidelity, optics="psf")))
     c = stages.coupling(every)
     return c.toarray() if hasattr(c, "toarray") else np.asarray(c)
 

@@ -15,6 +15,7 @@ from chiptwin.config import Scenario, ScenarioError
 from chiptwin.detection import snr, window_sums
 from chiptwin.kinetics import pyro
 from chiptwin.twin import dose_response, saturation, stages
+from chiptwin.twin.optics_summary import optics_figures
 from chiptwin.twin.programs import program_figures
 
 if TYPE_CHECKING:
@@ -91,6 +92,9 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     if out.full_well_pixel_frames:
         summary["chip"]["flags"].append("full_well")
     summary["dsp"] = dsp_figures(out.dsp)
+    optics_section = optics_figures(s, scene.coupling)
+    if optics_section is not None:
+        summary["optics"] = optics_section
     section = saturation.saturation_figures(s, scene, out, idx)
     if section is not None:
         section["cost"] = saturation.frame_cost(s, summary["chip"])

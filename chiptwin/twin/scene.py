@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import time
-import zlib
 from collections import defaultdict
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -23,11 +22,8 @@ from chiptwin.dsp.pipeline import Pipeline
 from chiptwin.limits import frames_per_block
 from chiptwin.twin import stages
 
-
-def stage_rng(seed: int, stage: str) -> np.random.Generator:
-    """The random stream of one stage: ``SeedSequence(seed)``'s child keyed by the stage's name."""
-    key = zlib.crc32(stage.encode())
-    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(key,)))
+stage_rng = stages.stage_rng
+"""The random stream of one stage (:func:`chiptwin.twin.stages.stage_rng`)."""
 
 
 class StageTimer:

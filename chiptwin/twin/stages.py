@@ -6,6 +6,8 @@ the only place that knows both the scenario's field names and those functions' s
 
 from __future__ import annotations
 
+import math
+import zlib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -21,6 +23,13 @@ from chiptwin.kinetics.pulse_train import PulseTrain
 
 FMOL, AMOL = 1e-15, 1e-18
 ZERO_C_K = 273.15
+
+
+def stage_rng(seed: int, stage: str) -> np.random.Generator:
+    """The random stream of one stage: ``SeedSequence(seed)``'s child keyed by the stage's name
+    (re-exported by :mod:`chiptwin.twin.scene`)."""
+    key = zlib.crc32(stage.encode())
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(key,)))
 
 
 def site_pixels(s: Scenario) -> np.ndarray:
@@ -170,21 +179,94 @@ def coupling(s: Scenario) -> np.ndarray | sparse.csr_matrix:
 def _lens_efficiency(s: Scenario) -> float:
     o = s.optics
     eff = optics.collection_efficiency(o.aperture_diameter_um, o.object_distance_um,
-                                       convention=o.convention)
+                                       convention=o.closed_form_convention)
     return float(eff) * o.transmission
 
 
-def _optics_grid(s: Scenario, rows: np.ndarray, cols: np.ndarray, rc: np.ndarray) -> np.ndarray:
-    """The na2/psf coupling of sites ``rc`` onto a ``len(rows) × len(cols)`` grid of pixels."""
-    px, o = s.chip.pixel, s.optics
-    grid = dict(n_rows=len(rows), n_cols=len(cols), pitch_um=s.chip.pitch_um,
+#: Index of the medium when a scenario states no layers (water/buffer at 560 nm, REFERENCE §2):
+#: it enters nothing at na2 and psf (one medium: the index cancels), only the raytrace level's
+#: silicon interface when ``silicon_n`` is given.
+DEFAULT_MEDIUM_N = 1.33
+
+
+def optics_stack(s: Scenario) -> optics.Stack:
+    """The scenario's planar stack (:class:`chiptwin.optics.Stack`): ``[optics] layers`` (``k``
+    as ``alpha_per_um = 4πk/λ``; a first layer without ``thickness_um`` fills the site height
+    above the others and the faceplate), or one medium of ``sites.height_um``; the silicon's index
+    ``silicon_n``, or (0: the diode plane absorbs all) the last layer's own index, so that no
+    light is reflected there."""
+    o = s.optics
+    if o.layers:
+        lam_um = o.wavelength_nm * 1e-3
+        fp = o.faceplate.thickness_um if o.faceplate.present else 0.0
+        fill = s.sites.height_um - fp - sum(float(t["thickness_um"]) for t in o.layers[1:])
+        layers = tuple(optics.Layer(
+            str(t.get("name", f"layer {i}")), float(t["n"]), float(t.get("thickness_um", fill)),
+            float(t["alpha_per_um"]) if "alpha_per_um" in t else
+            4.0 * math.pi * float(t.get("k", 0.0)) / lam_um) for i, t in enumerate(o.layers))
+    else:
+        layers = (optics.Layer("medium", DEFAULT_MEDIUM_N, s.sites.height_um),)
+    return optics.Stack(layers, o.silicon_n or layers[-1].n)
+
+
+def optics_faceplate(s: Scenario) -> optics.Faceplate | None:
+    """``[optics.faceplate]`` as a :class:`chiptwin.optics.Faceplate`, or None."""
+    f = s.optics.faceplate
+    if not f.present:
+        return None
+    return optics.Faceplate(na=f.na, fiber_pitch_um=f.fiber_pitch_um,
+                            thickness_um=f.thickness_um, open_area_ratio=f.open_area_ratio,
+                            core_n=f.core_n or None)
+
+
+def _grid(s: Scenario, rows: np.ndarray, cols: np.ndarray, rc: np.ndarray) -> dict:
+    px = s.chip.pixel
+    return dict(n_rows=len(rows), n_cols=len(cols), pitch_um=s.chip.pitch_um,
                 diode_w_um=px.diode_w_um, diode_h_um=px.diode_h_um,
                 site_x_um=(rc[:, 1] + 0.5) * s.chip.pitch_um,
-                site_y_um=(rc[:, 0] + 0.5) * s.chip.pitch_um,
-                height_um=s.sites.height_um, convention=o.convention)
-    if s.run.fidelity.optics == "na2":
-        return optics.coupling_na2(**grid)
-    return optics.coupling_psf(**grid, site_radius_um=s.sites.footprint_radius_um)
+                site_y_um=(rc[:, 0] + 0.5) * s.chip.pitch_um)
+
+
+def _optics_grid(s: Scenario, rows: np.ndarray, cols: np.ndarray, rc: np.ndarray) -> np.ndarray:
+    """The coupling of sites ``rc`` onto a ``len(rows) × len(cols)`` grid of pixels at the
+    scenario's optics level: ``na2``; ``psf`` (today's one-medium closed form when the scenario
+    states no stack, else through it: :func:`chiptwin.optics.coupling_stack`); ``raytrace``."""
+    o, level = s.optics, s.run.fidelity.optics
+    grid = _grid(s, rows, cols, rc)
+    if level == "raytrace":
+        return raytrace_result(s, grid).coupling
+    if level == "na2":
+        return optics.coupling_na2(**grid, height_um=s.sites.height_um,
+                                   convention=o.closed_form_convention)
+    if not o.stated_stack or o.law == "lambertian_na2":  # the convention: one medium
+        return optics.coupling_psf(**grid, height_um=s.sites.height_um,
+                                   convention=o.closed_form_convention,
+                                   site_radius_um=s.sites.footprint_radius_um)
+    c = optics.coupling_stack(**grid, stack=optics_stack(s), emitter=o.law,
+                              faceplate=optics_faceplate(s), into_silicon=o.silicon_n > 0,
+                              site_radius_um=s.sites.footprint_radius_um)
+    # the general path's corner sums leave ±1e-18 where no light lands (within its rtol): a
+    # share of light is ≥ 0 (the closed form's, returned above, is untouched)
+    return np.clip(c, 0.0, None)
+
+
+def raytrace_result(s: Scenario, grid: dict | None = None):
+    """The raytrace level's :class:`~chiptwin.optics.raytrace.RaytraceResult` of the scene's
+    sites (``grid``: another grid of pixels and sites, as :func:`_optics_grid` makes). Its rays
+    come from the stream ``"optics"`` of ``optics.raytrace_seed`` (not ``scenario.seed``: the
+    matrix is an estimate of the geometry, shared by a study's replicates), cached per geometry
+    and seed in ``$XDG_CACHE_HOME/chiptwin/raytrace``."""
+    from chiptwin.optics.raytrace import raytrace
+
+    o = s.optics
+    if grid is None:
+        rc = site_pixels(s)
+        grid = _grid(s, np.arange(s.chip.rows), np.arange(s.chip.cols), rc)
+    walls = {} if o.walls == "none" else dict(walls=o.walls, well_side_um=o.well_side_um)
+    return raytrace(optics_stack(s), **grid, rng=stage_rng(o.raytrace_seed, "optics"),
+                    site_radius_um=s.sites.footprint_radius_um, rel_error=o.raytrace_rel_error,
+                    emitter=o.law, faceplate=optics_faceplate(s), cache_tag=o.raytrace_seed,
+                    **walls)
 
 
 def _sparse_coupling(s: Scenario, rc: np.ndarray) -> sparse.csr_matrix:

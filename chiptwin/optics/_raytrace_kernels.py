@@ -1,0 +1,213 @@
+"""numba kernel of :mod:`chiptwin.optics.raytrace`: analog Monte Carlo rays through a planar stack.
+
+Arrays and scalars in, one outcome code per ray out; no objects, no globals but the code constants
+below. The wrapper validates everything once (STYLE 3). Geometry: ``z`` is the height above the
+diode plane (µm); layer ``i`` spans ``[z_bottom[i], z_top[i]]`` with ``z_top[0]`` the site plane;
+below the last layer lies the silicon.
+
+Outcome codes (one per ray, so transmitted + reflected out + absorbed = emitted, ray by ray):
+``0 … n_pixels−1`` the pixel whose diode absorbed the ray, then ``n_pixels +`` :data:`SILICON`
+(absorbed in silicon outside every diode), :data:`TOP` (left upwards through the site plane),
+:data:`WALL` (absorbed by a well wall), :data:`TRUNCATED` (still bouncing after ``max_events``
+interactions) and :data:`LAYER` ``+ i`` (absorbed in layer ``i``); with a fibre faceplate below
+the last layer, ``LAYER + n_layers`` (absorbed in the faceplate: outside its acceptance, or on the
+cladding and extramural absorber, the share ``1 − open_area``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from chiptwin._numba import NJIT
+
+SILICON, TOP, WALL, TRUNCATED, LAYER = 0, 1, 2, 3, 4
+"""Offsets after the pixel codes; ``LAYER + i`` is absorption in layer ``i``."""
+
+POL_S, POL_P, POL_AVERAGE = 0, 1, 2
+"""Fresnel reflectance used: s, p (one per ray, drawn at emission) or their mean at each hit."""
+
+EMIT_ISOTROPIC, EMIT_LAMBERTIAN = 0, 1
+FOOT_POINT, FOOT_DISC, FOOT_SQUARE = 0, 1, 2
+WALLS_NONE, WALLS_ABSORBING, WALLS_REFLECTING = 0, 1, 2
+
+
+@NJIT
+def fresnel(n1: float, n2: float, cos_i: float, pol: int) -> tuple[float, float]:
+    """Reflectance and transmitted cosine at a planar interface ``n1 → n2``.
+
+    Returns ``(R, cos_t)``; total internal reflection gives ``(1, 0)``. ``pol`` is
+    :data:`POL_S`, :data:`POL_P` or :data:`POL_AVERAGE` (unpolarised mean of the two).
+    """
+    if n1 == n2:
+        return 0.0, cos_i
+    sin_t2 = (n1 / n2) ** 2 * (1.0 - cos_i * cos_i)
+    if sin_t2 >= 1.0:
+        return 1.0, 0.0
+    cos_t = math.sqrt(1.0 - sin_t2)
+    rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t)
+    rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t)
+    if pol == POL_S:
+        return rs * rs, cos_t
+    if pol == POL_P:
+        return rp * rp, cos_t
+    return 0.5 * (rs * rs + rp * rp), cos_t
+
+
+@NJIT
+def _pixel_code(x, y, n_rows, n_cols, pitch, half_w, half_h) -> int:
+    """Index of the pixel whose diode rectangle holds ``(x, y)``, or −1 (fill factor: silicon)."""
+    col = math.floor(x / pitch)
+    row = math.floor(y / pitch)
+    if col < 0 or col >= n_cols or row < 0 or row >= n_rows:
+        return -1
+    if abs(x - (col + 0.5) * pitch) > half_w or abs(y - (row + 0.5) * pitch) > half_h:
+        return -1
+    return int(row) * n_cols + int(col)
+
+
+@NJIT
+def _wall_distance(x, y, dx, dy, x_lo, x_hi, y_lo, y_hi) -> tuple[float, int]:
+    """Path length to the nearest vertical wall of the well and its axis (0 = x, 1 = y)."""
+    tx = math.inf
+    if dx > 0.0:
+        tx = (x_hi - x) / dx
+    elif dx < 0.0:
+        tx = (x_lo - x) / dx
+    ty = math.inf
+    if dy > 0.0:
+        ty = (y_hi - y) / dy
+    elif dy < 0.0:
+        ty = (y_lo - y) / dy
+    if tx <= ty:
+        return max(tx, 0.0), 0
+    return max(ty, 0.0), 1
+
+
+@NJIT
+def trace_chunk(
+    gen, out, site_x, site_y, foot_shape, foot_size, emitter, pol_mode,
+    n_layer, z_bottom, z_top, alpha, n_si, walls, well_half,
+    n_rows, n_cols, pitch, half_w, half_h, max_events,
+    fp_na=0.0, fp_pitch=0.0, fp_open=1.0,
+):
+    """Trace ``out.size`` rays from one site; write each ray's outcome code into ``out``.
+
+    Every decision is an analog draw from ``gen`` (a ``numpy.random.Generator``): the footprint
+    point, the direction, the polarisation (``pol_mode`` :data:`POL_S`/:data:`POL_P` drawn
+    half and half when ``pol_mode`` is 0, else :data:`POL_AVERAGE`), reflection against
+    transmission at each interface (Russian roulette on the Fresnel R), the Beer–Lambert free path
+    in each absorbing layer and, at the diode plane, reflection against absorption in silicon.
+
+    Faceplate (``fp_na > 0``): the plane below the last layer is the faceplate's top face, and
+    ``n_si`` the index of its cores (the last layer's own index for no Fresnel loss). A ray
+    transmitted into it with Snell's invariant ``n·sinθ ≤ fp_na`` is carried straight down to the
+    diode plane with probability ``fp_open`` (the cores' share of the face), its lateral position
+    kept plus a uniform jitter over one fibre pitch ``fp_pitch`` (its place inside the fibre is
+    lost); every other ray is absorbed in the faceplate. No draw is made without a faceplate, so
+    the streams of a stack without one are unchanged.
+    """
+    n_layers = n_layer.size
+    n_pix = n_rows * n_cols
+    for k in range(out.size):
+        # the footprint point (uniform) and the direction (the emitter's law)
+        x, y = site_x, site_y
+        if foot_shape == FOOT_DISC:
+            r = foot_size * math.sqrt(gen.random())
+            a = 2.0 * math.pi * gen.random()
+            x += r * math.cos(a)
+            y += r * math.sin(a)
+        elif foot_shape == FOOT_SQUARE:
+            x += foot_size * (gen.random() - 0.5)
+            y += foot_size * (gen.random() - 0.5)
+        if emitter == EMIT_ISOTROPIC:
+            dz = 1.0 - 2.0 * gen.random()
+        else:
+            dz = -math.sqrt(1.0 - gen.random())
+        phi = 2.0 * math.pi * gen.random()
+        st = math.sqrt(max(0.0, 1.0 - dz * dz))
+        dx, dy = st * math.cos(phi), st * math.sin(phi)
+        pol = POL_AVERAGE
+        if pol_mode != POL_AVERAGE:
+            pol = POL_S if gen.random() < 0.5 else POL_P
+        if dz >= 0.0:
+            out[k] = n_pix + TOP
+            continue
+        x_lo, x_hi = site_x - well_half, site_x + well_half
+        y_lo, y_hi = site_y - well_half, site_y + well_half
+        i, z = 0, z_top[0]
+        code = n_pix + TRUNCATED
+        for _ in range(max_events):
+            if dz < 0.0:
+                z_end = z_bottom[i]
+            else:
+                z_end = z_top[i]
+            t = (z_end - z) / dz
+            t_wall, axis = math.inf, 0
+            if walls != WALLS_NONE and i == 0:
+                t_wall, axis = _wall_distance(x, y, dx, dy, x_lo, x_hi, y_lo, y_hi)
+            step = min(t, t_wall)
+            if alpha[i] > 0.0:
+                s_free = -math.log(1.0 - gen.random()) / alpha[i]
+                if s_free < step:
+                    code = n_pix + LAYER + i
+                    break
+            x += dx * step
+            y += dy * step
+            if t_wall < t:
+                z += dz * step
+                if walls == WALLS_ABSORBING:
+                    code = n_pix + WALL
+                    break
+                if axis == 0:
+                    dx = -dx
+                else:
+                    dy = -dy
+                continue
+            z = z_end
+            if dz > 0.0 and i == 0:
+                code = n_pix + TOP
+                break
+            down = dz < 0.0
+            if down:
+                n2 = n_si if i == n_layers - 1 else n_layer[i + 1]
+            else:
+                n2 = n_layer[i - 1]
+            refl, cos_t = fresnel(n_layer[i], n2, abs(dz), pol)
+            if gen.random() < refl:
+                dz = -dz
+                continue
+            if down and i == n_layers - 1:
+                if fp_na > 0.0:
+                    invariant = n_layer[i] * math.sqrt(max(0.0, 1.0 - dz * dz))
+                    if invariant > fp_na or gen.random() >= fp_open:
+                        code = n_pix + LAYER + n_layers
+                        break
+                    x += fp_pitch * (gen.random() - 0.5)
+                    y += fp_pitch * (gen.random() - 0.5)
+                p = _pixel_code(x, y, n_rows, n_cols, pitch, half_w, half_h)
+                code = n_pix + SILICON if p < 0 else p
+                break
+            ratio = n_layer[i] / n2
+            dx *= ratio
+            dy *= ratio
+            if down:
+                dz = -cos_t
+                i += 1
+            else:
+                dz = cos_t
+                i -= 1
+        out[k] = code
+
+
+@NJIT
+def tally(codes, counts) -> None:
+    """Add each ray's outcome to ``counts`` (one bin per code)."""
+    for k in range(codes.size):
+        counts[codes[k]] += 1
+
+
+def empty_codes(n: int) -> np.ndarray:
+    """An outcome buffer for ``n`` rays (int32)."""
+    return np.empty(n, dtype=np.int32)

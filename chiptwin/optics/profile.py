@@ -1,0 +1,273 @@
+"""Radial profile of a point source's light on the diode plane, through a planar stack (issue 18).
+
+A ray leaves the site at polar angle θ₀ (from the downward normal) in the first layer of a
+:class:`~chiptwin.optics.layers.Stack`. In every planar layer Snell's invariant ``β = n·sinθ``
+is the same, so ``cos θᵢ = √(1 − (β/nᵢ)²)``. Single pass, top to bottom, the ray
+
+* lands at the lateral distance ``ρ(β) = Σᵢ tᵢ·tan θᵢ`` from the foot of the site;
+* carries the weight ``W(β) = Πᵢ T(nᵢ → nᵢ₊₁) · exp(−Σᵢ αᵢ tᵢ / cos θᵢ)``, with ``T`` the
+  unpolarised Fresnel power transmittance ``(Tₛ + Tₚ)/2`` of every interface; a ray with ``β``
+  above the smallest index of the stack is totally reflected somewhere and never arrives (weight 0).
+
+The radial cumulative ``P(ρ)`` (fraction of the emitted photons landing within ``ρ`` of the foot)
+is tabulated at nodes uniform in the angle ``θₘ`` inside the stack's lowest-index layer: in that
+variable every cosine, every Fresnel factor and the emission measure are analytic, including the
+critical angle (the grazing end of ``θₘ``). Between nodes, ``P`` is a cubic Hermite interpolant in
+``ρ`` built from the exact ``P`` (Gauss–Legendre between nodes) and the exact ``dP/dρ``.
+
+Emitters (laws of the emitted intensity in the first layer, facing down):
+
+* ``"isotropic"``: ``dP = ½·W·d(−cos θ₀)`` (half the light goes down);
+* ``"lambertian"``: ``dP = W·d(−cos² θ₀)`` (intensity ∝ cos θ₀; all of it goes down).
+
+Multiple reflections are left out on purpose (single pass, as issue 18 asks for the psf level): see
+:func:`chiptwin.optics.stack_psf.plane_fraction_stack` for the incoherent multiple-reflection
+energy, which measures what the single pass leaves out.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from chiptwin.optics.layers import Layer, Stack
+
+ISOTROPIC_LAW: str = "isotropic"
+LAMBERTIAN_LAW: str = "lambertian"
+LAWS: tuple[str, ...] = (ISOTROPIC_LAW, LAMBERTIAN_LAW)
+"""Physical emission laws a profile is built for."""
+
+N_NODES: int = 4096
+"""Table nodes in θₘ. Checked against the homogeneous closed form: |ΔP| < 1e-12 (tests)."""
+
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
+
+
+def fresnel_unpolarised(n1: float, n2: float, beta: NDArray) -> NDArray:
+    """Unpolarised power transmittance ``(Tₛ + Tₚ)/2`` from index ``n1`` into ``n2``.
+
+    ``beta`` is Snell's invariant ``n·sinθ`` (must be ``<= min(n1, n2)``: no TIR here).
+    ``Tₛ = 4 a b / (a + b)²`` with ``a = n1 cos θ1, b = n2 cos θ2``; ``Tₚ`` the same with
+    ``a = n1 cos θ2, b = n2 cos θ1`` (Born & Wolf §1.5; energy flux across the interface).
+    """
+    c1 = np.sqrt(np.clip(1.0 - (beta / n1) ** 2, 0.0, None))
+    c2 = np.sqrt(np.clip(1.0 - (beta / n2) ** 2, 0.0, None))
+    prod = 4.0 * n1 * n2 * c1 * c2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ts = prod / (n1 * c1 + n2 * c2) ** 2
+        tp = prod / (n2 * c1 + n1 * c2) ** 2
+    return np.nan_to_num(0.5 * (ts + tp))
+
+
+def _arrays(layers: tuple[Layer, ...]) -> tuple[NDArray, NDArray, NDArray]:
+    n = np.array([layer.n for layer in layers])
+    t = np.array([layer.thickness_um for layer in layers])
+    a = np.array([layer.alpha_per_um for layer in layers])
+    return n, t, a
+
+
+def _cosines(n: NDArray, theta_m: NDArray) -> tuple[NDArray, list[NDArray]]:
+    """Snell's invariant ``β`` and every layer's ``cos θᵢ`` for angles ``θₘ`` in the lowest-index
+    layer (exactly ``cos θₘ`` in the layers of that index, so grazing rays keep full precision)."""
+    n_m = n.min()
+    beta = n_m * np.sin(theta_m)
+    c_m = np.cos(theta_m)
+    return beta, [c_m if n_i == n_m else np.sqrt(1.0 - (beta / n_i) ** 2) for n_i in n]
+
+
+def _emission(n: NDArray, theta_m: NDArray, cos0: NDArray, law: str) -> NDArray:
+    """``dP/dθₘ`` of the emitter alone (no losses): the emission law mapped to ``θₘ``."""
+    ratio = (n.min() / n[0]) ** 2
+    sc = np.sin(theta_m) * np.cos(theta_m)
+    if law == ISOTROPIC_LAW:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.nan_to_num(0.5 * ratio * sc / cos0)
+    return 2.0 * ratio * sc
+
+
+def _rays(layers: tuple[Layer, ...], theta_m: NDArray, law: str):
+    """Per ray (angle θₘ in the lowest-index layer): ``ρ``, ``dP/dθₘ``, ``dρ/dθₘ``, single pass."""
+    n, t, alpha = _arrays(layers)
+    n_m = n.min()
+    beta, cos = _cosines(n, theta_m)
+    c_m = np.cos(theta_m)
+    rho = np.zeros_like(theta_m)
+    drho = np.zeros_like(theta_m)
+    optical_depth = np.zeros_like(theta_m)
+    for n_i, t_i, a_i, c_i in zip(n, t, alpha, cos, strict=True):
+        if t_i > 0:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                rho += t_i * (beta / n_i) / c_i
+                drho += t_i * n_m * c_m / (n_i * c_i**3)
+                if a_i > 0:
+                    optical_depth += a_i * t_i / c_i
+    weight = np.exp(-optical_depth)
+    for i in range(len(n) - 1):
+        weight = weight * fresnel_unpolarised(n[i], n[i + 1], beta)
+    return rho, _emission(n, theta_m, cos[0], law) * weight, drho
+
+
+@dataclass(frozen=True, eq=False)
+class RadialProfile:
+    """Tabulated radial cumulative ``P(ρ)`` of a unit point source on the diode plane.
+
+    ``rho_um`` (increasing, from 0), ``cum`` (``P`` at the nodes), ``dens`` (``dP/dρ``, per µm),
+    ``total`` (``P(∞)``, the plane fraction) and ``bounded`` (True when no light lands beyond
+    ``rho_um[-1]``; else the residual ``total − cum[-1]`` falls off as ``(ρ_last/ρ)²``).
+    """
+
+    rho_um: NDArray[np.float64]
+    cum: NDArray[np.float64]
+    dens: NDArray[np.float64]
+    total: float
+    bounded: bool
+
+    def cumulative(self, r: ArrayLike) -> NDArray[np.float64]:
+        """``P(r)``: fraction of the emitted photons within ``r`` µm of the foot (no checks)."""
+        r = np.asarray(r, dtype=np.float64)
+        rho, last = self.rho_um, self.rho_um.size - 2
+        k = np.clip(np.searchsorted(rho, r, side="right") - 1, 0, last)
+        h = rho[k + 1] - rho[k]
+        s = (r - rho[k]) / h
+        s2, s3 = s * s, s * s * s
+        out = ((2 * s3 - 3 * s2 + 1) * self.cum[k] + (s3 - 2 * s2 + s) * h * self.dens[k]
+               + (3 * s2 - 2 * s3) * self.cum[k + 1] + (s3 - s2) * h * self.dens[k + 1])
+        beyond = r >= rho[-1]
+        if beyond.any():
+            if self.bounded:
+                tail = np.full(r.shape, self.total)
+            else:
+                with np.errstate(divide="ignore"):
+                    tail = self.total - (self.total - self.cum[-1]) * (rho[-1] / r) ** 2
+            out = np.where(beyond, tail, out)
+        return np.where(r <= 0, 0.0, out)
+
+    def density(self, r: ArrayLike) -> NDArray[np.float64]:
+        """``dP/dr`` of the interpolant (per µm; no checks; 0 beyond the last node)."""
+        r = np.asarray(r, dtype=np.float64)
+        rho, last = self.rho_um, self.rho_um.size - 2
+        k = np.clip(np.searchsorted(rho, r, side="right") - 1, 0, last)
+        h = rho[k + 1] - rho[k]
+        s = (r - rho[k]) / h
+        s2 = s * s
+        out = ((6 * s2 - 6 * s) / h * self.cum[k] + (3 * s2 - 4 * s + 1) * self.dens[k]
+               + (6 * s - 6 * s2) / h * self.cum[k + 1] + (3 * s2 - 2 * s) * self.dens[k + 1])
+        return np.where((r <= 0) | (r >= rho[-1]), 0.0, out)
+
+
+def _node_integrals(layers, edges: NDArray, law: str) -> NDArray:
+    """∫ dP/dθₘ over each interval between successive ``edges`` (8-point Gauss–Legendre)."""
+    lo, hi = edges[:-1, None], edges[1:, None]
+    theta = 0.5 * (lo + hi) + 0.5 * (hi - lo) * _GL_X[None, :]
+    _, dp, _ = _rays(layers, theta.ravel(), law)
+    return (dp.reshape(theta.shape) @ _GL_W) * 0.5 * (hi - lo)[:, 0]
+
+
+def build_profile(stack: Stack, law: str, *, na: float | None = None,
+                  n_nodes: int = N_NODES) -> RadialProfile:
+    """Tabulate ``P(ρ)`` for a unit point source emitting with ``law`` in the stack's first layer.
+
+    Parameters
+    ----------
+    stack : Stack
+        Layers from the site down to the receiving plane (the site sits ``thickness_um`` of the
+        first layer above its lower interface). No interface below the last layer is applied.
+    law : str
+        ``"isotropic"`` or ``"lambertian"`` (see the module docstring).
+    na : float, optional
+        Keep only rays with Snell's invariant ``n·sinθ <= na`` (a fibre faceplate's acceptance).
+    n_nodes : int
+        Table size (default :data:`N_NODES`).
+
+    Returns
+    -------
+    RadialProfile
+    """
+    if law not in LAWS:
+        raise ValueError(f"law = {law!r} is unknown: must be one of {LAWS}")
+    if not stack.height_um > 0:
+        raise ValueError(f"stack height_um = {stack.height_um!r}: must be > 0")
+    layers = stack.layers
+    n, t, _ = _arrays(layers)
+    n_m = float(n.min())
+    top = math.pi / 2 if na is None or na >= n_m else math.asin(na / n_m)
+    bounded = top < math.pi / 2 or not np.any(t[n == n_m] > 0)
+    theta = np.linspace(0.0, top, n_nodes + 1)
+    if not bounded:
+        theta = theta[:-1]
+    rho, dp, drho = _rays(layers, theta, law)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dens = np.nan_to_num(dp / drho)
+    cum = np.concatenate([[0.0], np.cumsum(_node_integrals(layers, theta, law))])
+    tail = 0.0 if bounded else float(_node_integrals(layers, np.array([theta[-1], top]), law)[0])
+    keep = np.concatenate([[True], np.diff(rho) > 0])  # zero-thickness tops: drop repeated ρ
+    return RadialProfile(rho[keep], cum[keep], dens[keep], float(cum[-1] + tail), bounded)
+
+
+# --- a disc of uniform emission ------------------------------------------------------------------
+
+
+def _disc_at(profile: RadialProfile, radius_um: float, rho: NDArray, n_tau: int):
+    """``P_disc(ρ)`` and ``dP_disc/dρ`` at ``rho`` by an ``n_tau``-point quadrature in τ."""
+    a = radius_um
+    x, gw = np.polynomial.legendre.leggauss(n_tau)
+    d = np.abs(rho - a)[:, None]
+    m, h = 0.5 * (rho[:, None] + a + d), 0.5 * (rho[:, None] + a - d)
+    # split τ at the point profile's outer edge (a kink of P when it is bounded)
+    edge = profile.rho_um[-1] if profile.bounded else np.inf
+    with np.errstate(invalid="ignore", divide="ignore"):
+        tau_k = np.nan_to_num(np.arccos(np.clip((m - edge) / h, -1.0, 1.0)), nan=np.pi)
+    cum, dens = 0.0, 0.0
+    for lo, hi in ((np.zeros_like(tau_k), tau_k), (tau_k, np.full_like(tau_k, np.pi))):
+        tau = 0.5 * (lo + hi) + 0.5 * (hi - lo) * x[None, :]
+        w = 0.5 * (hi - lo) * gw[None, :]
+        part = _disc_terms(profile, a, rho[:, None], d, m, h, tau, w)
+        cum, dens = cum + part[0], dens + part[1]
+    inside = rho < a
+    dens = dens + np.where(inside, 2.0 * rho * profile.cumulative(np.where(inside, a - rho, 0.0))
+                           / (a * a), 0.0)
+    return cum, dens
+
+
+def _disc_terms(profile, a, rho, d, m, h, tau, w):
+    r = m - h * np.cos(tau)
+    sin = np.sin(tau)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        chord_dr = h * h * sin * sin * np.sqrt((r + d) * (r + rho + a)) / r
+        cos_arg = (rho ** 2 + r * r - a * a) / (2.0 * rho * r)
+    chord_dr = np.nan_to_num(chord_dr)
+    arc = 2.0 * rho * np.arccos(np.clip(np.nan_to_num(cos_arg), -1.0, 1.0))
+    area = math.pi * a * a
+    cum = np.sum(profile.cumulative(r) * chord_dr * w, axis=1) / area
+    dens = np.sum(profile.density(r) * arc * h * sin * w, axis=1) / area
+    return cum, dens
+
+
+def disc_profile(profile: RadialProfile, radius_um: float, *, atol: float) -> RadialProfile:
+    """The profile of a disc of radius ``radius_um`` emitting uniformly: ``P`` ⊛ disc.
+
+    ``P_disc(ρ) = (1/πa²) ∫_{|ρ−a|}^{ρ+a} P(r)·chord(r) dr`` (integration by parts of the
+    lens-area overlap of the circle ``ρ`` and the disc ``a``), evaluated at the point profile's
+    nodes shifted to cover ``[0, ρ_last + a]``, with the substitution ``r = m − h cos τ`` that
+    removes the chord's square-root ends; the τ node count doubles from 16 until two levels
+    agree within ``atol`` everywhere.
+    """
+    rho = np.concatenate([profile.rho_um, profile.rho_um[-1] + radius_um * np.linspace(
+        0, 1, 65)[1:]])
+    rho = np.unique(np.concatenate([rho, np.linspace(0, 2 * radius_um, 257)]))
+    if profile.bounded:  # nothing lands beyond the edge of the point profile plus the radius
+        rho = rho[rho <= profile.rho_um[-1] + radius_um]
+    n_tau = 16
+    cum, _ = _disc_at(profile, radius_um, rho, n_tau)
+    while True:
+        n_tau *= 2
+        fine_cum, fine_dens = _disc_at(profile, radius_um, rho, n_tau)
+        if np.max(np.abs(fine_cum - cum)) <= atol or n_tau >= 1024:
+            break
+        cum = fine_cum
+    if np.max(np.abs(fine_cum - cum)) > atol:
+        raise ValueError(f"the disc footprint quadrature did not reach atol = {atol:g}")
+    return RadialProfile(rho, fine_cum, fine_dens, profile.total, profile.bounded)

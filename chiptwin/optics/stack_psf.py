@@ -1,0 +1,362 @@
+"""The ``psf`` level through a planar layer stack, with an optional fibre faceplate (issue 18).
+
+Same geometry and output as :func:`chiptwin.optics.psf.coupling_psf` (pixel ``p = row·n_cols +
+col``, diodes centred in their pitch cells, ``C[p, s]`` the fraction of site ``s``'s emitted
+photons landing on pixel ``p``'s diode), with the one medium of height ``U`` replaced by a
+:class:`~chiptwin.optics.layers.Stack` (single pass: Snell, unpolarised Fresnel at every interface,
+TIR, Beer–Lambert along the oblique path; :mod:`chiptwin.optics.profile`).
+
+Emitters (:data:`EMITTERS`): ``"isotropic"`` and ``"lambertian"`` are physical laws traced through
+the stack; ``"lambertian_na2"`` is the paper's convention kept by name for reproducing its figures:
+one medium of height ``stack.height_um``, the stack's indices ignored.
+
+Routing: a homogeneous stack (one index, no absorption), no faceplate and no silicon interface go
+to today's closed-form :func:`~chiptwin.optics.psf.coupling_psf`, bit for bit. Otherwise the
+general path integrates the tabulated radial profile over each diode exactly in angle:
+
+``F(x, y) = [H(x, y) + H(y, x)] / 2π``,  ``H(x, y) = ∫₀^{asinh(y/x)} P(x cosh w) / cosh w dw``
+
+is the share landing in ``[0, x] × [0, y]`` (``φ`` from the foot, ``tan φ = sinh w``: the
+variable that keeps a rectangle edge close to the foot smooth), and a rectangle is the signed sum of
+four corners, as in the closed form. A disc footprint convolves the profile first
+(:func:`chiptwin.optics.profile.disc_profile`); a square footprint and the faceplate's box blur are
+averaged over Gauss–Legendre nodes. Node counts double until two levels agree within
+``rtol × plane fraction`` (the same contract as ``coupling_psf``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from chiptwin import _checks
+from chiptwin.optics.collection import ISOTROPIC, LAMBERTIAN_NA2, plane_fraction
+from chiptwin.optics.faceplate import Faceplate
+from chiptwin.optics.layers import Layer, Stack
+from chiptwin.optics.profile import (
+    ISOTROPIC_LAW,
+    LAMBERTIAN_LAW,
+    RadialProfile,
+    _arrays,
+    _cosines,
+    _emission,
+    build_profile,
+    disc_profile,
+    fresnel_unpolarised,
+)
+from chiptwin.optics.psf import (
+    OFFSET_QUANTUM_UM,
+    _check_grid,
+    _footprint,
+    _footprint_nodes,
+    _sites,
+    coupling_psf,
+    pixel_centers_um,
+)
+
+EMITTERS: tuple[str, ...] = (ISOTROPIC_LAW, LAMBERTIAN_LAW, LAMBERTIAN_NA2)
+"""Emission laws by name: two physical ones and the paper's convention."""
+
+METHODS: tuple[str, ...] = ("auto", "radial")
+"""``auto``: closed form when the stack is homogeneous; ``radial``: always the general path."""
+
+_N_W_FIRST, _N_W_MAX = 16, 1024
+_CHUNK = 1 << 20
+
+
+def check_emitter(emitter: str) -> str:
+    """Return ``emitter`` if it is one of :data:`EMITTERS`, else raise a ValueError."""
+    if emitter not in EMITTERS:
+        raise ValueError(f"emitter = {emitter!r} is unknown: must be one of {EMITTERS}")
+    return emitter
+
+
+def _plane_of(emitter: str) -> float:
+    return plane_fraction(ISOTROPIC if emitter == ISOTROPIC_LAW else LAMBERTIAN_NA2)
+
+
+def receiving_stack(stack: Stack, *, into_silicon: bool = False,
+                    faceplate: Faceplate | None = None) -> Stack:
+    """The stack the profile is built for: a zero-thickness layer adds the last interface
+    (into the silicon, ``stack.silicon_n``, or into the faceplate's cores, ``core_n``)."""
+    if into_silicon and faceplate is not None:
+        raise ValueError("into_silicon with a faceplate: the faceplate's exit is straight down at "
+                         "the psf level; give one of the two")
+    if into_silicon:
+        return Stack(stack.layers + (Layer("silicon", stack.silicon_n, 0.0),), stack.silicon_n)
+    if faceplate is not None and faceplate.core_n is not None:
+        core = Layer("faceplate core", faceplate.core_n, 0.0)
+        return Stack(stack.layers + (core,), stack.silicon_n)
+    return stack
+
+
+# --- a point over a rectangle, through the profile -----------------------------------------------
+
+
+def _panel(lo: NDArray, hi: NDArray, n: int) -> tuple[NDArray, NDArray]:
+    x, w = np.polynomial.legendre.leggauss(n)
+    half = 0.5 * (hi - lo)[:, None]
+    return 0.5 * (hi + lo)[:, None] + half * x[None, :], half * w[None, :]
+
+
+def _h(profile: RadialProfile, x: NDArray, y: NDArray, n: int) -> NDArray:
+    """``H(x, y) = ∫₀^{asinh(y/x)} P(x cosh w)/cosh w dw`` for ``x, y > 0``; split at the
+    profile's outer edge when it is bounded (a kink of ``P``)."""
+    w_max = np.arcsinh(y / x)
+    if profile.bounded:
+        w_edge = np.arccosh(np.clip(profile.rho_um[-1] / x, 1.0, None))
+        w_edge = np.minimum(w_edge, w_max)
+    else:
+        w_edge = w_max
+    out = np.zeros(x.size)
+    for lo, hi in ((np.zeros_like(w_max), w_edge), (w_edge, w_max)):
+        nodes, weights = _panel(lo, hi, n)
+        cosh = np.cosh(nodes)
+        out += np.sum(profile.cumulative(x[:, None] * cosh) / cosh * weights, axis=1)
+    return out
+
+
+def _corner(profile: RadialProfile, x: NDArray, y: NDArray, n: int) -> NDArray:
+    """Signed share of ``[0, x] × [0, y]`` (any signs), as the closed form's corner terms."""
+    ax, ay = np.abs(x), np.abs(y)
+    ok = (ax > 0) & (ay > 0)
+    out = np.zeros(x.size)
+    if ok.any():
+        a, b = ax[ok], ay[ok]
+        out[ok] = (_h(profile, a, b, n) + _h(profile, b, a, n)) / (2.0 * np.pi)
+    return np.sign(x) * np.sign(y) * out
+
+
+def _rectangle(profile, x0, x1, y0, y1, n: int) -> NDArray:
+    return (_corner(profile, x1, y1, n) - _corner(profile, x0, y1, n)
+            - _corner(profile, x1, y0, n) + _corner(profile, x0, y0, n))
+
+
+def point_rectangle_fraction_stack(
+    x_min_um: ArrayLike, x_max_um: ArrayLike, y_min_um: ArrayLike, y_max_um: ArrayLike,
+    *, stack: Stack, emitter: str, n_w: int = 128,
+) -> NDArray[np.float64]:
+    """Fraction of a point source's photons landing on a rectangle (relative to the foot), through
+    ``stack`` (general path, ``n_w`` Gauss–Legendre nodes per panel). For tests and diagnostics;
+    the coupling matrix uses the converged :func:`coupling_stack`."""
+    law = check_emitter(emitter)
+    if law == LAMBERTIAN_NA2:
+        raise ValueError("lambertian_na2 is the one-medium convention: "
+                         "use psf.point_rectangle_fraction")
+    arrays = [np.atleast_1d(_checks.as_float_array(name, v)).ravel() for name, v in (
+        ("x_min_um", x_min_um), ("x_max_um", x_max_um), ("y_min_um", y_min_um),
+        ("y_max_um", y_max_um))]
+    arrays = np.broadcast_arrays(*arrays)
+    return _rectangle(build_profile(stack, law), *arrays, n_w)
+
+
+# --- the coupling matrix ------------------------------------------------------------------------
+
+
+def _blur_nodes(square_um: float, faceplate: Faceplate | None, n: int):
+    """Nodes over the square footprint ⊛ the faceplate's box (either, both or none)."""
+    sides = [s for s in (square_um, faceplate.fiber_pitch_um if faceplate else 0.0) if s > 0]
+    qx, qy, w = np.zeros(1), np.zeros(1), np.ones(1)
+    for side in sides:
+        bx, by, bw = _footprint_nodes("square", side, n)
+        qx = (qx[:, None] + bx[None, :]).ravel()
+        qy = (qy[:, None] + by[None, :]).ravel()
+        w = (w[:, None] * bw[None, :]).ravel()
+    return qx, qy, w
+
+
+def _average(profile, dx, dy, half_w, half_h, nodes, n_w) -> NDArray:
+    qx, qy, weight = nodes
+    out = np.zeros(dx.size)
+    step = max(1, _CHUNK // max(dx.size * 16 * n_w, 1))
+    for start in range(0, qx.size, step):
+        sl = slice(start, start + step)
+        cx = (dx[:, None] - qx[None, sl]).ravel()
+        cy = (dy[:, None] - qy[None, sl]).ravel()
+        frac = _rectangle(profile, cx - half_w, cx + half_w, cy - half_h, cy + half_h, n_w)
+        out += frac.reshape(dx.size, -1) @ weight[sl]
+    return out
+
+
+def _converged(profile, dx, dy, half_w, half_h, square_um, faceplate, atol) -> NDArray:
+    blurred = square_um > 0 or faceplate is not None
+    n_w, n_sq = _N_W_FIRST, 4
+    coarse = _average(profile, dx, dy, half_w, half_h, _blur_nodes(square_um, faceplate, n_sq),
+                      n_w)
+    while n_w < _N_W_MAX:
+        n_w *= 2
+        n_sq = min(2 * n_sq, 64) if blurred else n_sq
+        fine = _average(profile, dx, dy, half_w, half_h,
+                        _blur_nodes(square_um, faceplate, n_sq), n_w)
+        if np.max(np.abs(fine - coarse)) <= atol:
+            return fine
+        coarse = fine
+    raise ValueError(f"the stack psf quadrature did not reach atol = {atol:g} with {_N_W_MAX} "
+                     "nodes: raise rtol")
+
+
+def coupling_stack(
+    *,
+    n_rows: int,
+    n_cols: int,
+    pitch_um: float,
+    diode_w_um: float,
+    diode_h_um: float,
+    site_x_um: ArrayLike,
+    site_y_um: ArrayLike,
+    stack: Stack,
+    emitter: str,
+    faceplate: Faceplate | None = None,
+    into_silicon: bool = False,
+    site_radius_um: float = 0.0,
+    site_side_um: float = 0.0,
+    rtol: float = 1e-6,
+    method: str = "auto",
+) -> NDArray[np.float64]:
+    """Site-to-pixel coupling through a planar stack (the ``psf`` level, single pass).
+
+    Parameters
+    ----------
+    n_rows, n_cols, pitch_um, diode_w_um, diode_h_um, site_x_um, site_y_um, site_radius_um,
+    site_side_um, rtol
+        As in :func:`chiptwin.optics.psf.coupling_psf` (µm; ``rtol`` relative to the plane
+        fraction of the emitter's law: 0.5 isotropic, 1 Lambertian).
+    stack : Stack
+        Layers from the site (in the first) down to the diode plane, or to the faceplate's top.
+    emitter : str
+        ``"isotropic"``, ``"lambertian"`` (physical, through the stack) or ``"lambertian_na2"``
+        (the paper's convention: one medium of height ``stack.height_um``).
+    faceplate : Faceplate, optional
+        A fibre faceplate below the stack, directly on the diodes
+        (:mod:`chiptwin.optics.faceplate`).
+    into_silicon : bool
+        False (default): the light incident on the diode plane (the pixel's QE, an external QE,
+        carries the surface reflection). True: times the unpolarised Fresnel transmittance into
+        silicon of index ``stack.silicon_n`` at each ray's angle (then use an internal QE).
+    method : str
+        ``"auto"`` (closed form for a homogeneous stack) or ``"radial"`` (always the general path;
+        for tests of its accuracy).
+
+    Returns
+    -------
+    ndarray, shape (n_rows * n_cols, n_sites)
+    """
+    law = check_emitter(emitter)
+    if method not in METHODS:
+        raise ValueError(f"method = {method!r} is unknown: must be one of {METHODS}")
+    if not isinstance(stack, Stack):
+        raise ValueError(f"stack = {stack!r}: must be a chiptwin.optics.layers.Stack")
+    grid = dict(n_rows=n_rows, n_cols=n_cols, pitch_um=pitch_um, diode_w_um=diode_w_um,
+                diode_h_um=diode_h_um, site_x_um=site_x_um, site_y_um=site_y_um,
+                site_radius_um=site_radius_um, site_side_um=site_side_um, rtol=rtol)
+    if law == LAMBERTIAN_NA2:
+        if faceplate is not None or into_silicon:
+            raise ValueError("emitter 'lambertian_na2' is the paper's one-medium convention: "
+                             "no faceplate, no silicon interface")
+        return coupling_psf(**grid, height_um=stack.height_um, convention=LAMBERTIAN_NA2)
+    closed = ISOTROPIC if law == ISOTROPIC_LAW else LAMBERTIAN_NA2
+    if method == "auto" and stack.homogeneous and faceplate is None and not into_silicon:
+        return coupling_psf(**grid, height_um=stack.height_um, convention=closed)
+    rows, cols, _ = _check_grid(n_rows, n_cols, pitch_um, diode_w_um, diode_h_um)
+    sx, sy = _sites(site_x_um, site_y_um)
+    tol = _checks.scalar("rtol", rtol, minimum=0.0, strict=True)
+    if not 1e-12 <= tol <= 1e-2:
+        raise ValueError(f"rtol = {tol!r} is out of range: must be in [1e-12, 1e-2]")
+    shape, size = _footprint(site_radius_um, site_side_um)
+    atol = tol * _plane_of(law)
+    profile = build_profile(receiving_stack(stack, into_silicon=into_silicon, faceplate=faceplate),
+                            law, na=faceplate.na if faceplate else None)
+    if shape == "disc":
+        profile = disc_profile(profile, size, atol=0.25 * atol)
+    px, py = pixel_centers_um(rows, cols, pitch_um)
+    dx = np.abs(px[:, None] - sx[None, :]).ravel()
+    dy = np.abs(py[:, None] - sy[None, :]).ravel()
+    keys = np.round(np.stack([dx, dy], axis=1) / OFFSET_QUANTUM_UM)
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    values = _converged(profile, dx[first], dy[first], 0.5 * diode_w_um, 0.5 * diode_h_um,
+                        size if shape == "square" else 0.0, faceplate, atol)
+    if faceplate is not None:
+        values = values * faceplate.open_area_ratio
+    return values[inverse.ravel()].reshape(rows * cols, sx.size)
+
+
+# --- plane fractions and the collected fraction under each law ------------------------------------
+
+
+def _incoherent_weight(layers: tuple[Layer, ...], theta_m: NDArray) -> NDArray:
+    """Transmittance to the last plane with the incoherent multiple-reflection sum in every
+    internal layer, s and p separately (then averaged); the first layer single pass (open above)."""
+    n, t, alpha = _arrays(layers)
+    beta, cos = _cosines(n, theta_m)
+    att = [np.exp(-a_i * t_i / np.where(c_i > 0, c_i, np.inf)) if a_i > 0 else np.ones_like(c_i)
+           for a_i, t_i, c_i in zip(alpha, t, cos, strict=True)]
+    total = np.zeros_like(theta_m)
+    for pol in ("s", "p"):
+        trans, refl = np.ones_like(theta_m), np.zeros_like(theta_m)
+        for j in range(len(n) - 2, -1, -1):
+            t_j = _polarised(n[j], n[j + 1], cos[j], cos[j + 1], pol)
+            a2r = att[j + 1] ** 2 * refl
+            denom = 1.0 - (1.0 - t_j) * a2r
+            trans = t_j * att[j + 1] * trans / denom
+            refl = (1.0 - t_j) + t_j * t_j * a2r / denom
+        total += 0.5 * trans
+    return total * att[0]
+
+
+def _polarised(n1, n2, c1, c2, pol: str) -> NDArray:
+    prod = 4.0 * n1 * n2 * c1 * c2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = prod / ((n1 * c1 + n2 * c2) ** 2 if pol == "s" else (n2 * c1 + n1 * c2) ** 2)
+    return np.nan_to_num(out)
+
+
+def plane_fraction_stack(stack: Stack, emitter: str, *, into_silicon: bool = False,
+                         reflections: str = "single") -> float:
+    """Fraction of the emitted photons reaching an infinite diode plane through ``stack``.
+
+    ``reflections="single"``: the psf level's single pass (equal to the coupling summed over a
+    huge diode). ``"incoherent"``: with the incoherent multiple-reflection sum inside every layer
+    below the first (slab factor ``T₁₂T₂₃/(1 − R₂₁R₂₃)`` per polarisation, REFERENCE §2, nested):
+    the energy the single pass leaves out, which the ``raytrace`` level places.
+    """
+    law = check_emitter(emitter)
+    if law == LAMBERTIAN_NA2:
+        return 1.0
+    layers = receiving_stack(stack, into_silicon=into_silicon).layers
+    if reflections == "single":
+        return build_profile(Stack(layers, stack.silicon_n), law).total
+    if reflections != "incoherent":
+        raise ValueError(f"reflections = {reflections!r}: must be 'single' or 'incoherent'")
+    n, _, _ = _arrays(layers)
+    edges = np.linspace(0.0, np.pi / 2, 513)
+    theta, w = _panel(edges[:-1], edges[1:], 8)
+    _, cos = _cosines(n, theta.ravel())
+    dp = _emission(n, theta.ravel(), cos[0], law) * _incoherent_weight(layers, theta.ravel())
+    return float(np.sum(dp.reshape(theta.shape) * w))
+
+
+def collected_fractions(
+    *, n_rows: int, n_cols: int, pitch_um: float, diode_w_um: float, diode_h_um: float,
+    site_x_um: ArrayLike, site_y_um: ArrayLike, stack: Stack, faceplate: Faceplate | None = None,
+    site_radius_um: float = 0.0, site_side_um: float = 0.0, rtol: float = 1e-6,
+) -> dict[str, float]:
+    """The share of each site's light collected by all diodes, mean over sites, per emitter law.
+
+    Returns ``{"isotropic": …, "lambertian": …, "lambertian_na2": …}`` (the last only without a
+    faceplate), for ``chiptwin run`` to report the law's weight beside the chosen one.
+    """
+    out = {}
+    for law in EMITTERS:
+        if law == LAMBERTIAN_NA2 and faceplate is not None:
+            continue
+        c = coupling_stack(n_rows=n_rows, n_cols=n_cols, pitch_um=pitch_um,
+                           diode_w_um=diode_w_um, diode_h_um=diode_h_um, site_x_um=site_x_um,
+                           site_y_um=site_y_um, stack=stack, emitter=law, faceplate=faceplate,
+                           site_radius_um=site_radius_um, site_side_um=site_side_um, rtol=rtol)
+        out[law] = float(np.mean(c.sum(axis=0)))
+    return out
+
+
+__all__ = ["EMITTERS", "METHODS", "check_emitter", "collected_fractions", "coupling_stack",
+           "fresnel_unpolarised", "plane_fraction_stack", "point_rectangle_fraction_stack",
+           "receiving_stack"]

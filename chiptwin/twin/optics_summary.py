@@ -1,0 +1,129 @@
+"""``summary['optics']``: what the optics did to a scene's light (issue 18).
+
+Three parts, each cheap (one site, at most a :data:`WINDOW` × :data:`WINDOW` window of pixels):
+
+* **the run's coupling** at its level: the first site's own-pixel share of its emitted photons,
+  the cross-talk to its brightest edge neighbour (``10·log10(neighbour / own)``, a ratio of
+  light; None below :data:`CROSSTALK_FLOOR`) and the share all pixels collect;
+* **the emitter law's weight** (contact imaging): the share a site at the array's centre puts on
+  all diodes, at the ``psf`` level through the scenario's stack, under each law
+  (``isotropic``, ``lambertian`` and the paper's ``lambertian_na2`` convention); flagged when
+  they differ by more than the run's budget (``[run] error_budget`` ``signal_rel``, else
+  ``snr_rel``, else :data:`LAW_SPREAD_DEFAULT`);
+* **the faceplate against direct contact** (a scenario with ``[optics.faceplate]``): own pixel,
+  cross-talk and collected share at the ``psf`` level with the faceplate, and with the same
+  layers directly on the diodes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from chiptwin import optics
+from chiptwin.config import Scenario
+from chiptwin.twin import stages
+
+#: Side of the window of pixels around the centre site the law and faceplate figures use (the
+#: array when smaller): 33 pixels of the reference chip's 125 µm pitch span 4 mm.
+WINDOW = 33
+
+#: Neighbour/own ratio below which the cross-talk is reported as none (None): −120 dB, far
+#: below any measurement and above the psf quadrature's ±1e-18 zeros.
+CROSSTALK_FLOOR = 1e-12
+
+#: Relative spread between the laws' collected shares reported when no budget names one.
+LAW_SPREAD_DEFAULT = 0.01
+
+
+def optics_figures(s: Scenario, coupling) -> dict[str, Any] | None:
+    """The ``optics`` section of ``summary.json``, or None for light given at the sensor."""
+    if s.assay.kind == "flux":
+        return None
+    o = s.optics
+    idx = stages.site_pixel_indices(s)
+    col = coupling[:, [0]]
+    col = np.asarray(col.toarray() if hasattr(col, "toarray") else col)[:, 0]
+    out: dict[str, Any] = {"level": s.run.fidelity.optics, "emitter": o.law,
+                           "site": int(idx[0]), **_own_and_neighbour(s, col, int(idx[0]))}
+    if o.coupling != "contact":
+        return out
+    fractions = law_fractions(s)
+    spread = max(fractions.values()) / min(fractions.values()) - 1.0
+    budget = s.run.error_budget.signal_rel or s.run.error_budget.snr_rel or LAW_SPREAD_DEFAULT
+    out["collected_fraction"] = fractions
+    out["law_spread_rel"] = _r(spread)
+    out["laws_differ_beyond_budget"] = bool(spread > budget)
+    if o.faceplate.present:
+        out["faceplate"] = faceplate_vs_direct(s)
+    return out
+
+
+def _own_and_neighbour(s: Scenario, col: np.ndarray, p: int) -> dict[str, Any]:
+    """Own-pixel share, cross-talk to the brightest edge neighbour (dB), total collected."""
+    rows, cols = s.chip.rows, s.chip.cols
+    r, c = divmod(p, cols)
+    nbs = [(r + dr) * cols + c + dc for dr, dc in ((0, 1), (0, -1), (1, 0), (-1, 0))
+           if 0 <= r + dr < rows and 0 <= c + dc < cols]
+    own = float(col[p])
+    nb = max((float(col[q]) for q in nbs), default=0.0)
+    db = 10 * math.log10(nb / own) if own > 0 and nb > CROSSTALK_FLOOR * own else None
+    return {"own_pixel": _r(own), "crosstalk_db": None if db is None else round(db, 2),
+            "collected": _r(float(col.sum()))}
+
+
+def _r(v: float) -> float:
+    return float(f"{v:.6g}")
+
+
+def _centre(s: Scenario) -> tuple[dict, int]:
+    """The grid of a window around a site at the array's centre, and its pixel in the window."""
+    chip, px = s.chip, s.chip.pixel
+    nr, nc = min(chip.rows, WINDOW), min(chip.cols, WINDOW)
+    r, c = nr // 2, nc // 2
+    grid = dict(n_rows=nr, n_cols=nc, pitch_um=chip.pitch_um, diode_w_um=px.diode_w_um,
+                diode_h_um=px.diode_h_um, site_x_um=[(c + 0.5) * chip.pitch_um],
+                site_y_um=[(r + 0.5) * chip.pitch_um],
+                site_radius_um=s.sites.footprint_radius_um)
+    return grid, r * nc + c
+
+
+def law_fractions(s: Scenario) -> dict[str, float]:
+    """Share of a centre site's light on all diodes of the window, ``psf`` through the stack,
+    per emitter law (``lambertian_na2`` only without a faceplate: it is a one-medium
+    convention, without the silicon's reflection), times ``optics.transmission``."""
+    grid, _ = _centre(s)
+    stack, fp = stages.optics_stack(s), stages.optics_faceplate(s)
+    out = {}
+    for law in optics.EMITTERS:
+        if fp is not None and law == optics.LAMBERTIAN_NA2:
+            continue
+        c = optics.coupling_stack(**grid, stack=stack, emitter=law, faceplate=fp,
+                                  into_silicon=s.optics.silicon_n > 0
+                                  and law != optics.LAMBERTIAN_NA2)
+        out[law] = _r(float(c.sum()) * s.optics.transmission)
+    return out
+
+
+def faceplate_vs_direct(s: Scenario) -> dict[str, Any]:
+    """Own pixel, cross-talk and collected share of a centre site at the ``psf`` level, with the
+    faceplate and with the same layers directly on the diodes (the faceplate removed, the site
+    lower by its thickness), under the scenario's emitter law."""
+    grid, p = _centre(s)
+    stack, fp = stages.optics_stack(s), stages.optics_faceplate(s)
+    small = replace(s, chip=replace(s.chip, rows=grid["n_rows"], cols=grid["n_cols"]))
+    out: dict[str, Any] = {"level": "psf", "emitter": s.optics.law,
+                           "direct": "the same layers directly on the diodes"}
+    for name, face in (("with", fp), ("without", None)):
+        c = optics.coupling_stack(**grid, stack=stack, emitter=s.optics.law, faceplate=face)
+        out[name] = _own_and_neighbour(small, c[:, 0] * s.optics.transmission, p)
+    w, wo = out["with"], out["without"]
+    if w["own_pixel"] and wo["own_pixel"]:
+        out["own_pixel_ratio"] = _r(w["own_pixel"] / wo["own_pixel"])
+    return out
+
+
+__all__ = ["faceplate_vs_direct", "law_fractions", "optics_figures"]
