@@ -8,7 +8,8 @@
 #    packages: Verilator 5.006 and Icarus Verilog 11.0 (rtl_ref refuses Verilator < 5.0 and
 #    Icarus < 11.0). Set CHIPTWIN_NO_APT=1 to skip this step.
 # 2. python -m pip install -e ".[test]"
-# 3. python -m pytest "$@"
+# 3. python -m pytest -n auto "$@"   (pytest-xdist: one worker per core; pass -n 0 to run
+#    in one process, e.g. with --pdb)
 #
 # Without the simulators (and no way to install them) the RTL tests skip with a message saying
 # how to install them; with CI=true they fail instead.
@@ -59,4 +60,4 @@ if command -v iverilog >/dev/null 2>&1; then
 fi
 
 "$PY" -m pip install -q -e ".[test]"
-exec "$PY" -m pytest "$@"
+exec "$PY" -m pytest -n auto "$@"
