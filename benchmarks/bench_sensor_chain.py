@@ -5,27 +5,43 @@ read noise, conversion gain, 12-bit ADC; one read per frame (Pyxel's CMOS chain)
 timed in interleaved rounds (this machine is shared and noisy; medians are reported):
 
 (a) floor: one bare ``Generator.poisson`` call drawing all 1.05e7 counts at the same means
-    (and the same on NumPy's SFC64 bit generator, which the fast path's streams use);
+    (and the same on NumPy's SFC64 bit generator, which the fast path's streams use), and two
+    cores' worth of it: two threads, each drawing half (NumPy releases the GIL while it draws);
 (b) plain numpy, frame by frame: the same physics with whole-array numpy calls;
 (c) ``chiptwin.pixel.sensor_chain``, exact Poisson, all cores (and on one thread, for scaling);
 (d) ``sensor_chain(shot_noise="gaussian")``: a named approximation, with its error measured.
 
-Peak memory is measured separately with tracemalloc (NumPy's allocations are traced). Reference,
-not run here: Pyxel 3.0.2 takes 7.7 s and 1.5 GB for this workload (REFERENCE §6).
+(e) Pyxel 3.0.2 (``pyxel-sim``), exposure mode, warm, the same physics on the same scene (shot
+    noise, QE, dark, full well, read noise, 12-bit ADC), when it can be run: in its own
+    interpreter, given by ``--pyxel-python`` or ``$CHIPTWIN_PYXEL_PYTHON`` (a venv:
+    ``python -m venv /work/venvs/pyxel && /work/venvs/pyxel/bin/pip install pyxel-sim==3.0.2``;
+    its dependencies need not agree with ours), else this interpreter if it imports ``pyxel``.
+    The worker stays up and runs once per round, between the other contenders' turns, so every
+    ratio comes from runs side by side. Without Pyxel the table says so and prints no ratio.
 
-Usage: ``python benchmarks/bench_sensor_chain.py [--side 1024] [--frames 10] [--rounds 5]``.
+Peak memory is measured separately with tracemalloc (NumPy's allocations are traced), Pyxel's
+the same way inside its worker. No timing of another tool is written in this file.
+
+Usage: ``python benchmarks/bench_sensor_chain.py [--side 1024] [--frames 10] [--rounds 5]
+[--pyxel-python PATH] [--quick]``. ``--quick``: 128² × 2 frames, 2 rounds, no Pyxel unless
+asked: the same code path in a few seconds.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
+import os
 import resource
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 import tracemalloc
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 
 import numba
 import numpy as np
@@ -34,8 +50,6 @@ from scipy.stats import poisson
 
 from chiptwin.pixel import adc_convert, fixed_pattern_maps, sensor_chain, to_volts
 from chiptwin.pixel.chain import available_cores
-
-PYXEL_S, PYXEL_GB = 7.7, 1.5  # REFERENCE §6, Pyxel 3.0.2, same workload, 2-core machine
 
 CHIP = dict(
     qe=0.6,
@@ -67,6 +81,17 @@ def floor(rng: np.random.Generator, scene: dict, n_frames: int) -> None:
 def floor_sfc64(rng: np.random.Generator, scene: dict, n_frames: int) -> None:
     """(a') The same with NumPy's SFC64 bit generator, the one the fast path's streams use."""
     floor(np.random.Generator(np.random.SFC64(rng.integers(2**63))), scene, n_frames)
+
+
+def floor_two_cores(rng: np.random.Generator, scene: dict, n_frames: int) -> None:
+    """(a2) Two cores' worth of (a): two threads, each one bare draw over half the frames."""
+    seeds = rng.integers(2**63, size=2)
+    halves = (n_frames // 2, n_frames - n_frames // 2)
+    with ThreadPoolExecutor(2) as pool:
+        pairs = zip(seeds, halves, strict=True)
+        jobs = [pool.submit(floor, np.random.default_rng(s), scene, h) for s, h in pairs]
+        for job in jobs:
+            job.result()
 
 
 def plain_numpy(rng: np.random.Generator, scene: dict, n_frames: int) -> None:
@@ -102,8 +127,10 @@ def fast(n_threads: int | None, shot_noise: str = "poisson") -> Callable:
     return run
 
 
-def time_rounds(methods: dict[str, Callable], scene: dict, n_frames: int, rounds: int) -> dict:
-    """Median wall time per method over interleaved rounds."""
+def time_rounds(
+    methods: dict[str, Callable], scene: dict, n_frames: int, rounds: int, pyxel: Pyxel | None
+) -> dict[str, list[float]]:
+    """Wall times of every method, in interleaved rounds (Pyxel's turn last in each round)."""
     times: dict[str, list[float]] = {name: [] for name in methods}
     rng = np.random.default_rng(7)
     for _ in range(rounds):
@@ -111,7 +138,124 @@ def time_rounds(methods: dict[str, Callable], scene: dict, n_frames: int, rounds
             t0 = time.perf_counter()
             run(rng, scene, n_frames)
             times[name].append(time.perf_counter() - t0)
-    return {name: statistics.median(ts) for name, ts in times.items()}
+        if pyxel is not None:
+            pyxel.run()
+    return times
+
+
+#: The Pyxel side, run in Pyxel's own interpreter: builds the YAML of the same chain, warms up,
+#: then runs ``run_mode`` once per "run" line on stdin and prints its wall time; "mem" prints the
+#: traced peak of one run (MB). Pyxel's models: load_image (photons per readout of 1 s), Poisson
+#: shot noise, QE (no binomial sampling: the mean), dark (e⁻/s), collection, full well, charge to
+#: volt, output-node read noise (V), amplifier, 12-bit ADC.
+PYXEL_WORKER = r"""
+import json, os, resource, sys, time, tracemalloc
+a = json.loads(sys.argv[1])
+import pyxel
+f = lambda x: f"{float(x):.9e}"  # YAML 1.1 reads 4e-05 as a string
+m = lambda n, fn, args="": (f"    - {{name: {n}, func: pyxel.models.{fn}, enabled: true"
+                            + (f", arguments: {{{args}}}" if args else "") + "}")
+times = ", ".join(f(t + 1) for t in range(a["frames"]))
+yaml = "\n".join([
+    "exposure:", f"  readout: {{times: [{times}], non_destructive: false}}",
+    f"  pipeline_seed: {a['seed']}",
+    "cmos_detector:",
+    f"  geometry: {{row: {a['side']}, col: {a['side']}, total_thickness: 40.0,"
+    " pixel_vert_size: 10.0, pixel_horz_size: 10.0}",
+    "  environment: {temperature: 300.0}",
+    f"  characteristics: {{quantum_efficiency: {f(a['qe'])}, charge_to_volt: {{value:"
+    f" {f(a['cg_V'])}}}, pre_amplification: 1.0, adc_bit_resolution: {a['bits']},"
+    f" adc_voltage_range: [{f(a['v_min'])}, {f(a['v_max'])}], full_well_capacity:"
+    f" {a['full_well']}}}",
+    "pipeline:",
+    "  photon_collection:",
+    m("load_image", "photon_collection.load_image", f"image_file: '{a['image']}'"),
+    m("shot_noise", "photon_collection.shot_noise"),
+    "  charge_generation:",
+    m("photoelectrons", "charge_generation.simple_conversion", "binomial_sampling: false"),
+    m("dark", "charge_generation.simple_dark_current", f"dark_rate: {f(a['dark_e'])}"),
+    "  charge_collection:",
+    m("collection", "charge_collection.simple_collection"),
+    m("full_well", "charge_collection.simple_full_well"),
+    "  charge_measurement:",
+    m("measurement", "charge_measurement.simple_measurement"),
+    m("read_noise", "charge_measurement.output_node_noise", f"std_deviation: {f(a['read_V'])}"),
+    "  readout_electronics:",
+    m("amplifier", "readout_electronics.simple_amplifier"),
+    m("adc", "readout_electronics.simple_adc"),
+])
+path = os.path.join(os.path.dirname(a["image"]), "pyxel.yaml")
+with open(path, "w") as fh:
+    fh.write(yaml + "\n")
+def once():
+    cfg = pyxel.load(path)
+    t0 = time.perf_counter()
+    pyxel.run_mode(cfg)
+    return time.perf_counter() - t0
+once()  # warm: imports, caches
+print(json.dumps({"version": pyxel.__version__}), flush=True)
+for line in sys.stdin:
+    if line.strip() == "run":
+        print(json.dumps({"s": once()}), flush=True)
+    elif line.strip() == "mem":
+        tracemalloc.start()
+        once()
+        peak = tracemalloc.get_traced_memory()[1] / 1e6
+        tracemalloc.stop()
+        rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3
+        print(json.dumps({"peak_MB": peak, "max_rss_MB": rss}), flush=True)
+"""
+
+
+def pyxel_python(flag: str | None) -> str | None:
+    """The interpreter that runs Pyxel: ``--pyxel-python``, ``$CHIPTWIN_PYXEL_PYTHON``, or this
+    one if it imports ``pyxel``; None when there is none."""
+    path = flag or os.environ.get("CHIPTWIN_PYXEL_PYTHON")
+    if path:
+        return path
+    return sys.executable if importlib.util.find_spec("pyxel") else None
+
+
+class Pyxel:
+    """Pyxel's worker process over the benchmark's scene; :meth:`run` times one warm run."""
+
+    def __init__(self, python: str, scene: dict, n_frames: int, folder: str) -> None:
+        image = os.path.join(folder, "photons.npy")
+        np.save(image, scene["photons"])
+        dark = float(np.mean(scene["dark_e"]))  # Pyxel's simple dark current is uniform
+        args = {"frames": n_frames, "seed": 1, "side": scene["photons"].shape[0], "image": image,
+                "qe": CHIP["qe"], "cg_V": CHIP["conversion_gain_uV_per_e"] * 1e-6,
+                "bits": CHIP["bits"], "v_min": CHIP["v_min_V"], "v_max": CHIP["v_max_V"],
+                "full_well": int(CHIP["full_well_e"]), "dark_e": dark,
+                "read_V": CHIP["read_noise_e"] * CHIP["conversion_gain_uV_per_e"] * 1e-6,
+                }  # fmt: skip
+        self.proc = subprocess.Popen(
+            [python, "-c", PYXEL_WORKER, json.dumps(args)], stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+        )  # fmt: skip
+        self.version = self._reply()["version"]
+        self.times_s: list[float] = []
+
+    def _reply(self) -> dict:
+        line = self.proc.stdout.readline()  # type: ignore[union-attr]
+        if not line:
+            raise RuntimeError("the Pyxel worker stopped (run it by hand to see why)")
+        return json.loads(line)
+
+    def _ask(self, what: str) -> dict:
+        self.proc.stdin.write(what + "\n")  # type: ignore[union-attr]
+        self.proc.stdin.flush()  # type: ignore[union-attr]
+        return self._reply()
+
+    def run(self) -> None:
+        self.times_s.append(self._ask("run")["s"])
+
+    def close(self) -> dict:
+        """Its memory (one more run, traced) and every time; the worker stops."""
+        mem = self._ask("mem")
+        self.proc.stdin.close()  # type: ignore[union-attr]
+        self.proc.wait()
+        return {"version": self.version, "times_s": self.times_s, **mem}
 
 
 def peak_memory_mb(run: Callable, scene: dict, n_frames: int) -> float:
@@ -160,29 +304,49 @@ def sampled_moments(shot_noise: str, lam: float, n: int = 2_000_000) -> list[flo
     return [float(x.mean()), float(x.var()), float((d**3).mean() / x.var() ** 1.5)]
 
 
-def report(times: dict, memory: dict, n_values: int, cold_s: float) -> dict:
-    """Print the comparison table; return it as a dict."""
-    a, b = times["a_floor"], times["b_plain_numpy"]
-    print(f"{'contender':28s} {'median s':>9s} {'vs (a)':>7s} {'vs (b)':>7s} {'peak MB':>8s}")
-    for name, t in times.items():
-        print(f"{name:28s} {t:9.3f} {t / a:7.2f} {t / b:7.2f} {memory[name]:8.1f}")
-    c = times["c_sensor_chain"]
-    print(
-        f"{'Pyxel 3.0.2 (REFERENCE §6)':28s} {PYXEL_S:9.3f} {'':7s} {'':7s} {PYXEL_GB * 1e3:8.0f}"
-    )
-    print(
-        f"(c) vs Pyxel: {PYXEL_S / c:.1f}x faster, {PYXEL_GB * 1e3 / memory['c_sensor_chain']:.0f}x"
-        f" less memory; aim (c) ≤ 1.3 × (a): {'met' if c <= 1.3 * a else 'NOT met'}"
-        f" ({c / a:.2f}); {n_values / c / 1e6:.1f} M pixel-frames/s"
-    )
-    print(f"first call of sensor_chain (JIT load or compile): {cold_s:.2f} s")
-    return {
-        "median_s": times,
+def report(times: dict, memory: dict, n_values: int, cold_s: float, pyxel: dict | None) -> dict:
+    """Print the comparison table (ratios from this run only); return it as a dict."""
+    med = {name: statistics.median(ts) for name, ts in times.items()}
+    a, a2, b = med["a_floor"], med["a3_floor_two_cores"], med["b_plain_numpy"]
+    print(f"{'contender':28s} {'median s':>9s} {'min s':>7s} {'max s':>7s} {'vs (a)':>7s}"
+          f" {'vs (a2)':>7s} {'peak MB':>8s}")  # fmt: skip
+    for name, ts in times.items():
+        t = med[name]
+        print(f"{name:28s} {t:9.3f} {min(ts):7.3f} {max(ts):7.3f} {t / a:7.2f} {t / a2:7.2f}"
+              f" {memory[name]:8.1f}")  # fmt: skip
+    c, c1 = times["c_sensor_chain"], times["c1_sensor_chain_1_thread"]
+    result = {
+        "median_s": med,
+        "all_s": times,
         "peak_MB": memory,
-        "ratio_c_vs_a": c / a,
-        "ratio_c_vs_b": c / b,
+        "ratio_c_vs_a": statistics.median(c) / a,
+        "ratio_c_vs_two_cores_floor": statistics.median(c) / a2,
+        "ratio_c1_vs_a": statistics.median(c1) / a,
+        "ratio_c_vs_b": statistics.median(c) / b,
         "cold_call_s": cold_s,
     }
+    cm = statistics.median(c)
+    print(
+        f"(c) vs two cores' floor (a2): {cm / a2:.2f}× (aim ≤ 1.1); one thread (c1) vs (a):"
+        f" {statistics.median(c1) / a:.2f}×; {n_values / cm / 1e6:.1f} M pixel-frames/s"
+    )
+    if pyxel is None:
+        print("(e) Pyxel: not installed here (see --pyxel-python): no ratio against it.")
+    else:
+        e = statistics.median(pyxel["times_s"])
+        print(
+            f"(e) Pyxel {pyxel['version']} run_mode, warm, this run: median {e:.3f} s"
+            f" (min {min(pyxel['times_s']):.3f}, max {max(pyxel['times_s']):.3f}),"
+            f" traced peak {pyxel['peak_MB']:.0f} MB, process RSS {pyxel['max_rss_MB']:.0f} MB"
+        )
+        print(
+            f"(c) vs Pyxel, this run: {e / cm:.1f}× faster (per-round ratios"
+            f" {min(pyxel['times_s']) / max(c):.1f}–{max(pyxel['times_s']) / min(c):.1f}×),"
+            f" {pyxel['peak_MB'] / memory['c_sensor_chain']:.0f}× less traced memory"
+        )
+        result |= {"pyxel": pyxel, "ratio_pyxel_vs_c": e / cm}
+    print(f"first call of sensor_chain (JIT load or compile): {cold_s:.2f} s")
+    return result
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -190,8 +354,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--side", type=int, default=1024)
     parser.add_argument("--frames", type=int, default=10)
     parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument(
+        "--pyxel-python",
+        help="interpreter with pyxel-sim 3.0.2 installed"
+        " (default $CHIPTWIN_PYXEL_PYTHON, or this one if it imports pyxel)",
+    )
+    parser.add_argument("--quick", action="store_true", help="128² × 2 frames, 2 rounds")
     parser.add_argument("--json", help="also write the results here")
     args = parser.parse_args(argv)
+    if args.quick:
+        args.side, args.frames, args.rounds = 128, 2, 2
     print(
         f"cores available: {available_cores()}; numpy {np.__version__}; numba {numba.__version__}"
     )
@@ -202,24 +374,34 @@ def main(argv: list[str] | None = None) -> int:
     methods = {
         "a_floor": floor,
         "a2_floor_sfc64": floor_sfc64,
+        "a3_floor_two_cores": floor_two_cores,
         "b_plain_numpy": plain_numpy,
         "c_sensor_chain": fast(None),
         "c1_sensor_chain_1_thread": fast(1),
         "d_sensor_chain_gaussian": fast(None, "gaussian"),
     }
-    print(f"{args.side}×{args.side} pixels × {args.frames} frames, {args.rounds} rounds")
-    times = time_rounds(methods, scene, args.frames, args.rounds)
+    python = pyxel_python(args.pyxel_python) if not args.quick or args.pyxel_python else None
+    print(
+        f"{args.side}×{args.side} pixels × {args.frames} frames, {args.rounds} rounds;"
+        f" Pyxel: {python or 'not available'}"
+    )
+    with tempfile.TemporaryDirectory() as folder:
+        pyxel = None if python is None else Pyxel(python, scene, args.frames, folder)
+        times = time_rounds(methods, scene, args.frames, args.rounds, pyxel)
+        pyxel_result = None if pyxel is None else pyxel.close()
     memory = {name: peak_memory_mb(run, scene, args.frames) for name, run in methods.items()}
-    result = report(times, memory, args.side**2 * args.frames, cold_s)
+    result = report(times, memory, args.side**2 * args.frames, cold_s, pyxel_result)
     errors = [gaussian_error(lam) for lam in (1000.0, 1e4)]
-    moments = {lv: sampled_moments(lv, 1000.0) for lv in ("poisson", "gaussian")}
+    n_draws = 20_000 if args.quick else 2_000_000
+    moments = {lv: sampled_moments(lv, 1000.0, n_draws) for lv in ("poisson", "gaussian")}
     for e in errors:
         print(
             f"gaussian level at λ = {e['lam']:g}: total-variation distance {e['tv_distance']:.4f}"
             f" (drops skewness {e['poisson_skewness']:.4f})"
         )
-    for lv, (m, v, s) in moments.items():
-        print(f"  2e6 draws at λ = 1000, {lv:8s}: mean {m:.2f}, variance {v:.1f}, skewness {s:.4f}")
+    for lv, (m, v, sk) in moments.items():
+        print(f"  {n_draws:.0e} draws at λ = 1000, {lv:8s}: mean {m:.2f}, variance {v:.1f},"
+              f" skewness {sk:.4f}")  # fmt: skip
     result |= {
         "gaussian_error": errors,
         "gaussian_sampled_moments": moments,

@@ -1,6 +1,8 @@
 """A study against a plain loop of run() over the same rows, and bisect against the grid.
 
-    python benchmarks/bench_study.py [--points 10] [--replicates 100] [--loop-rows 100]
+    python benchmarks/bench_study.py [--points 10] [--replicates 100] [--loop-rows 100] [--quick]
+
+``--quick``: 2 points × 3 replicates, 3 loop rows, no ``lod_pyro``: the same code path in seconds.
 
 1. A ``pyro_1fmol`` study (binned photons, float DSP): ``--points`` DNA amounts × ``--replicates``,
    run with 1 and with 2 workers (the scaling), against a plain loop of ``run()`` over the first
@@ -56,7 +58,10 @@ def main() -> None:
     ap.add_argument("--replicates", type=int, default=100)
     ap.add_argument("--loop-rows", type=int, default=100)
     ap.add_argument("--skip-lod", action="store_true")
+    ap.add_argument("--quick", action="store_true", help="2 × 3 rows, 3 loop rows, no lod_pyro")
     args = ap.parse_args()
+    if args.quick:
+        args.points, args.replicates, args.loop_rows, args.skip_lod = 2, 3, 3, True
     folder = Path(tempfile.mkdtemp())
     path = folder / "bench.toml"
     path.write_text(STUDY.format(points=args.points, replicates=args.replicates))
@@ -87,15 +92,23 @@ def main() -> None:
 
     print(f"study: {rows} runs of pyro_1fmol ({args.points} points × {args.replicates})")
     print(f"  1 worker  {timed[1]:7.1f} s  {rows / timed[1]:6.1f} runs/s")
-    print(f"  2 workers {timed[2]:7.1f} s  {rows / timed[2]:6.1f} runs/s  "
-          f"(scaling {timed[1] / timed[2]:.2f}×)")
-    print(f"plain run() loop: {per_run:.3f} s per run over {len(loop)} rows; {rows} rows on 2 "
-          f"cores ≈ {per_run * rows / 2:.1f} s → the study is {per_run * rows / 2 / timed[2]:.2f}× "
-          "faster")
-    print(f"  per row inside the study: {row_time / rows:.3f} s (shared per-point work: "
-          f"{per_run / (row_time / rows):.2f}× less per run)")
-    print(f"store: {store_s:.3f} s for {rows} rows = {100 * store_s / row_time:.2f} % of the "
-          "rows' run time")
+    print(
+        f"  2 workers {timed[2]:7.1f} s  {rows / timed[2]:6.1f} runs/s  "
+        f"(scaling {timed[1] / timed[2]:.2f}×)"
+    )
+    print(
+        f"plain run() loop: {per_run:.3f} s per run over {len(loop)} rows; {rows} rows on 2 "
+        f"cores ≈ {per_run * rows / 2:.1f} s → the study is {per_run * rows / 2 / timed[2]:.2f}× "
+        "faster"
+    )
+    print(
+        f"  per row inside the study: {row_time / rows:.3f} s (shared per-point work: "
+        f"{per_run / (row_time / rows):.2f}× less per run)"
+    )
+    print(
+        f"store: {store_s:.3f} s for {rows} rows = {100 * store_s / row_time:.2f} % of the "
+        "rows' run time"
+    )
 
     if not args.skip_lod:
         lod = load_study(bundled_studies()["lod_pyro"], resolve_scenario)
@@ -105,8 +118,10 @@ def main() -> None:
         grid_runs = len(lod.points()) * lod.replicates
         n = res.summary["runs"]["total"]
         print(f"lod_pyro bisect: {n} runs, {wall:.1f} s; answer {res.answer[0]['point']}")
-        print(f"  as a grid: {grid_runs} runs ≈ {wall * grid_runs / n:.0f} s "
-              f"({grid_runs / n:.1f}× the bisection)")
+        print(
+            f"  as a grid: {grid_runs} runs ≈ {wall * grid_runs / n:.0f} s "
+            f"({grid_runs / n:.1f}× the bisection)"
+        )
 
 
 if __name__ == "__main__":
