@@ -5,8 +5,8 @@ Three parts, each cheap (one site, at most a :data:`WINDOW` × :data:`WINDOW` wi
 * **the run's coupling** at its level: the first site's own-pixel share of its emitted photons,
   the cross-talk to its brightest edge neighbour (``10·log10(neighbour / own)``, a ratio of
   light; None below :data:`CROSSTALK_FLOOR`) and the share all pixels collect;
-* **the emitter law's weight** (contact imaging): the share a site at the array's centre puts on
-  all diodes, at the ``psf`` level through the scenario's stack, under each law
+* **the emitter law's weight** (contact imaging): the share a point site at the array's centre
+  puts on all diodes, at the ``psf`` level through the scenario's stack, under each law
   (``isotropic``, ``lambertian`` and the paper's ``lambertian_na2`` convention); flagged when
   they differ by more than the run's budget (``[run] error_budget`` ``signal_rel``, else
   ``snr_rel``, else :data:`LAW_SPREAD_DEFAULT`);
@@ -92,10 +92,13 @@ def _centre(s: Scenario) -> tuple[dict, int]:
 
 
 def law_fractions(s: Scenario) -> dict[str, float]:
-    """Share of a centre site's light on all diodes of the window, ``psf`` through the stack,
-    per emitter law (``lambertian_na2`` only without a faceplate: it is a one-medium
-    convention, without the silicon's reflection), times ``optics.transmission``."""
+    """Share of a point site's light at the array's centre on all diodes of the window (the
+    footprint moves a share collected over many diodes by far less than the laws differ),
+    ``psf`` through the stack, per emitter law (``lambertian_na2`` only without a faceplate: it
+    is a one-medium convention, without the silicon's reflection), times
+    ``optics.transmission``."""
     grid, _ = _centre(s)
+    grid["site_radius_um"] = 0.0  # a point site: the footprint's convolution is 85 % of the cost
     stack, fp = stages.optics_stack(s), stages.optics_faceplate(s)
     out = {}
     for law in optics.EMITTERS:

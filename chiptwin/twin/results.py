@@ -92,7 +92,7 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
     if out.full_well_pixel_frames:
         summary["chip"]["flags"].append("full_well")
     summary["dsp"] = dsp_figures(out.dsp)
-    optics_section = optics_figures(s, scene.coupling)
+    optics_section = scene.once("optics", lambda: optics_figures(s, scene.coupling))
     if optics_section is not None:
         summary["optics"] = optics_section
     section = saturation.saturation_figures(s, scene, out, idx)

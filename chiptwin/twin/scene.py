@@ -11,8 +11,10 @@ from __future__ import annotations
 import math
 import time
 from collections import defaultdict
+from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -133,6 +135,13 @@ class Scene:
                            whole.cds_var_lsb2[start:stop],
                            int(np.count_nonzero(whole.mean_e[start:stop]
                                                 >= self.sensor.full_well_e)))
+
+    def once(self, key: str, make: Callable[[], Any]) -> Any:
+        """``make()``, computed once per scene: figures that depend on the scene alone, not on
+        a replicate's draws (a study's replicates share the scene)."""
+        if key not in self._memo:
+            self._memo[key] = make()
+        return self._memo[key]
 
     def pixel_frames(self, t_int_s: float, gain_error: float) -> PixelFrames:
         """Every frame's :func:`pixel_frames`, block by block (kept for a small scene)."""
