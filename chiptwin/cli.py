@@ -60,7 +60,15 @@ def build_parser() -> argparse.ArgumentParser:
     ch.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="override a scenario value (repeatable)")
     ch.add_argument("--seed", type=int, help="replace scenario.seed")
-    ch.add_argument("--out", help="output folder (default: out/<scenario name>-emva1288)")
+    ch.add_argument("--out", help="output folder (default: out/<scenario name>-emva1288, "
+                    "with --adc out/<scenario name>-adc1241)")
+    ch.add_argument("--adc", action="store_true", help="the ADC's own IEEE 1241 bench instead: "
+                    "every converter as built, driven at its input (adc1241.json)")
+    ch.add_argument("--adc-dnl-sigma", type=float, default=0.1, metavar="LSB",
+                    help="with --adc: the DNL's standard error asked (default 0.1 LSB)")
+    ch.add_argument("--adc-converters", type=int, default=256, metavar="N",
+                    help="with --adc: most converters measured, a grid over the array "
+                    "(default 256)")
     ch.add_argument("--quiet", action="store_true", help="no progress, no table")
     la = sub.add_parser("ladder", help="speed against error: every fidelity level of a scene "
                         "against the most faithful combination")
@@ -226,6 +234,8 @@ def _characterize(args: argparse.Namespace) -> int:
         scenario = load_with_datasheet(path, datasheet, args.set, args.seed)
     else:
         scenario = load_scenario(path, args.set, args.seed)
+    if args.adc:
+        return _characterize_adc(scenario, args)
     out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}-emva1288",
                         marker=JSON_NAME)  # before the measurement
     with output_lock(out):
@@ -235,6 +245,31 @@ def _characterize(args: argparse.Namespace) -> int:
     if not args.quiet:
         print("\n".join(headline(result.datasheet)))
         print(f"  outputs in {out}/ ({JSON_NAME}, datasheet.md, plots)")
+    return 0
+
+
+def _characterize_adc(scenario, args: argparse.Namespace) -> int:
+    from chiptwin.characterize.adc1241.bench import BenchSettings, adc_bench
+    from chiptwin.characterize.adc1241.outputs import JSON_NAME, headline
+    from chiptwin.config.outputs import check_out_dir
+
+    try:
+        settings = BenchSettings(dnl_sigma_lsb=args.adc_dnl_sigma,
+                                 max_converters=args.adc_converters)
+    except ValueError as exc:
+        dnl = str(exc).startswith("dnl_sigma_lsb")
+        raise ScenarioError("chiptwin", "--adc-dnl-sigma" if dnl else "--adc-converters",
+                            args.adc_dnl_sigma if dnl else args.adc_converters,
+                            str(exc).split(": ", 1)[-1]) from None
+    out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}-adc1241",
+                        marker=JSON_NAME)  # before the measurement
+    bench = adc_bench(scenario, settings=settings,
+                      progress=None if args.quiet else _Progress("conversions"))
+    out = bench.write(out)
+    if not args.quiet:
+        print("\n".join(headline(bench.to_json())))
+        print(f"  {bench.wall_time_s:.1f} s; outputs in {out}/ ({JSON_NAME}, adc1241.npz, "
+              "adc1241.md, plots)")
     return 0
 
 

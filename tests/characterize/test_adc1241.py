@@ -210,6 +210,20 @@ def test_transition_noise(sigma_lsb):
     assert np.all(np.abs(tn.level_V - table[tn.transitions - 1]) < 0.1 * q)
 
 
+def test_transition_noise_13_bits():
+    """Regression: at 13 bits (x ≈ 4096 LSB) a transition crossed by a handful of noise tails
+    at the sweep's end fitted as a step (σ ≈ 1e-13 LSB) was kept, because T ± 4σ rounded to T
+    and looked covered; the rms fell from 0.5 to 0.47 LSB. Comparator noise 0.5 LSB, levels
+    every 0.1 LSB over transitions 4094 … 4097 ± 5.5 LSB, 200 conversions each: no kept σ
+    below 0.4 LSB and the rms within 4 stated σ of 0.5."""
+    bits, rng = 13, np.random.default_rng(1)
+    lv = a.dc_sweep_V(bits, V_MIN, V_MAX, 4094, 4097, step_lsb=0.1, margin_lsb=5.5)
+    codes = convert(np.repeat(lv[:, None], 200, 1), ideal_table(bits), 0.5 * q_of(bits), rng)
+    tn = a.transition_noise(lv, codes, bits, V_MIN, V_MAX)
+    assert tn.sigma_lsb.min() > 0.4 and tn.transitions.size >= 8
+    assert abs(tn.transition_noise_lsb - 0.5) <= 4 * tn.transition_noise_sigma_lsb
+
+
 def test_transition_noise_unresolved():
     """Noise far below the level grid (0.01 LSB noise, 0.1 LSB steps): no transition is
     resolved, the rms is NaN rather than a number the grid cannot support."""

@@ -468,6 +468,12 @@ def to_jsonable(obj: Any) -> Any:
         return to_jsonable(asdict(obj))
     if isinstance(obj, Mapping):
         return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, np.ndarray) and obj.dtype.kind == "f":  # fast path for per-code arrays
+        out = obj.astype(object)
+        out[~np.isfinite(obj)] = None
+        return out.tolist()
+    if isinstance(obj, np.ndarray) and obj.dtype.kind in "iub":
+        return obj.tolist()
     if isinstance(obj, (list, tuple, np.ndarray)):
         return [to_jsonable(v) for v in (obj.tolist() if isinstance(obj, np.ndarray) else obj)]
     if isinstance(obj, (np.integer, bool, np.bool_)):

@@ -50,24 +50,35 @@ def _upper_fraction(codes: NDArray[np.int64], ks: NDArray[np.int64]) -> NDArray[
 
 def _probit_fit(x: NDArray[np.float64], y: NDArray[np.float64], r: int, iters: int = 60):
     """Binomial maximum likelihood of y ≈ Φ(a + b·x) per row (Fisher scoring), with the inverse
-    Fisher information's var(b). Start from the moments of the step in y."""
+    Fisher information's var(b). Start from the moments of the step in y.
+
+    Each row is fitted in x centred on its starting 50 % level μ₀ (then a = a_c − b·μ₀): at
+    13 bits x is ≈ 4096, and centring keeps det = s0·s2 − s1² from cancelling; det and var(b)
+    are unchanged by the shift. Stops when every row's step is below 1e-12 (a noiseless step
+    never converges: all iterations)."""
     dy = np.diff(y, axis=1)
     xm = 0.5 * (x[1:] + x[:-1])
     w0 = np.clip(dy, 0.0, None) / np.maximum(np.clip(dy, 0.0, None).sum(1, keepdims=True), 1e-300)
     mu = (w0 * xm).sum(1)
     sd = np.sqrt(np.maximum((w0 * (xm - mu[:, None]) ** 2).sum(1), np.diff(x).min() ** 2))
-    a, b = -mu / sd, 1.0 / sd
-    for _ in range(iters):
-        eta = np.clip(a[:, None] + b[:, None] * x, -8.0, 8.0)
-        cdf = np.clip(ndtr(eta), 1e-15, 1 - 1e-15)
-        pdf = np.exp(-0.5 * eta**2) / np.sqrt(2.0 * np.pi)
-        w = r * pdf**2 / (cdf * (1.0 - cdf))
-        z = eta + (y - cdf) / np.maximum(pdf, 1e-300)
-        s0, s1, s2 = w.sum(1), (w * x).sum(1), (w * x * x).sum(1)
-        t0, t1 = (w * z).sum(1), (w * x * z).sum(1)
-        det = s0 * s2 - s1**2
-        a, b = (s2 * t0 - s1 * t1) / det, (s0 * t1 - s1 * t0) / det
-    return a, b, s0 / det
+    xc = x[None, :] - mu[:, None]
+    a, b = np.zeros(mu.size), 1.0 / sd
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for _ in range(iters):
+            eta = np.clip(a[:, None] + b[:, None] * xc, -8.0, 8.0)
+            cdf = np.clip(ndtr(eta), 1e-15, 1 - 1e-15)
+            pdf = np.exp(-0.5 * eta**2) / np.sqrt(2.0 * np.pi)
+            w = r * pdf**2 / (cdf * (1.0 - cdf))
+            z = eta + (y - cdf) / np.maximum(pdf, 1e-300)
+            s0, s1, s2 = w.sum(1), (w * xc).sum(1), (w * xc * xc).sum(1)
+            t0, t1 = (w * z).sum(1), (w * xc * z).sum(1)
+            det = s0 * s2 - s1**2
+            a_new, b_new = (s2 * t0 - s1 * t1) / det, (s0 * t1 - s1 * t0) / det
+            step = np.maximum(np.abs(a_new - a), np.abs(b_new - b) / np.abs(b_new))
+            a, b = a_new, b_new
+            if np.all(step <= 1e-12):
+                break
+        return a - b * mu, b, s0 / det
 
 
 def transition_noise(levels_V: ArrayLike, codes: ArrayLike, bits: int, v_min_V: float,
@@ -126,7 +137,8 @@ def _covered(x: NDArray[np.float64], mu: NDArray[np.float64], sig: NDArray[np.fl
     for i, (m, s) in enumerate(zip(mu, sig, strict=True)):
         if not (np.isfinite(m) and np.isfinite(s) and s > 0):
             continue
-        inside = x[(x > m - 4 * s) & (x < m + 4 * s)]
-        pts = np.concatenate([[m - 4 * s], inside, [m + 4 * s]])
-        ok[i] = x[0] <= m - 4 * s and x[-1] >= m + 4 * s and np.diff(pts).max() <= s
+        d = x - m  # offsets: m ± 4s can round to m itself at 13 bits (x ≈ 4096, s ≈ 1e-13)
+        inside = d[(d > -4 * s) & (d < 4 * s)]
+        pts = np.concatenate([[-4 * s], inside, [4 * s]])
+        ok[i] = d[0] <= -4 * s and d[-1] >= 4 * s and np.diff(pts).max() <= s
     return ok
