@@ -7,7 +7,8 @@ Three measurements, each warm (numba kernels compiled and cached first):
    same pixel-frames with the same samples per frame (M = 4 CMS reset and signal samples, kTC,
    13-bit ADC) in the same process, interleaved. ``run()`` also makes the light, the moments, the
    DSP and the detection; the ratio says what the chip model costs over the bare chain.
-2. Peak RSS of ``run()`` at 256² for 1,520 and 3,040 frames, each in a fresh process
+2. Peak RSS of ``run()`` at 256² for 1,520 and 3,040 frames, each in a fresh process, and of
+   the reference chip (``pyro_1fmol``) after the imports and after one run
    (``VmHWM`` of ``/proc/self/status``: ``ru_maxrss`` survives ``exec`` on Linux, so a child
    started from this process would report this process's peak), to show memory flat in frames.
 3. ``pyro_array_256`` end to end (``run()``, then the outputs written), wall time and peak RSS.
@@ -118,6 +119,16 @@ def peak_rss_mb(side: int, duration_s: float) -> float:
     return int(out.stdout.split()[-1]) / 1024
 
 
+def reference_rss_mb() -> tuple[float, float]:
+    """Peak RSS (MB) of a fresh process after importing the twin, and after one ``pyro_1fmol``."""
+    code = (f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import bench_scale; "
+            "from chiptwin.fidelity import run; a = bench_scale.vm_hwm_kb(); "
+            f"run({str(PYRO)!r}); print(a, bench_scale.vm_hwm_kb())")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    before, after = (int(v) / 1024 for v in out.stdout.split()[-2:])
+    return before, after
+
+
 def array_end_to_end() -> dict:
     code = (f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import bench_scale; "
             "import time, tempfile, json; from chiptwin.fidelity import run; "
@@ -159,6 +170,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"peak RSS at 256²: 1,520 frames {rss[1520]:.0f} MB, 3,040 frames {rss[3040]:.0f} MB"
               f" (ratio {rss[3040] / rss[1520]:.3f})")
         result["peak_rss_mb_256"] = rss
+        before, after = reference_rss_mb()
+        print(f"peak RSS, reference chip: {before:.0f} MB after the imports, {after:.0f} MB "
+              "after one pyro_1fmol run")
+        result["peak_rss_mb_reference"] = {"imported": before, "after_run": after}
     if not args.skip_array:
         arr = array_end_to_end()
         print(f"pyro_array_256: run {arr['run_s']:.1f} s, outputs {arr['write_s']:.1f} s, "
