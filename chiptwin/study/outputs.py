@@ -121,8 +121,9 @@ def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
                     c = np.array(sorted(cap), dtype=float)
                     ax.step(c[:, 0], c[:, 1], "k:", where="mid", label="capacity")
             _log_if_wide(ax, axis, points, name)
-            ax.set(xlabel=axis, ylabel=f"{name} ({CATALOGUE[name].unit})",
-                   title=f"{name} vs {axis} ({summary['confidence']:.0%} interval band)")
+            ax.set(xlabel=axis, ylabel=f"{name} ({CATALOGUE[name].unit})")
+            ax.set_title(f"{name} vs {axis} ({summary['confidence']:.0%} interval band)",
+                         fontsize=9)
             if ax.get_legend_handles_labels()[0]:
                 ax.legend(fontsize=7)
             fname = f"{name}_vs_{axis.replace('.', '_')}.png"
