@@ -12,6 +12,7 @@ error measured against the reference: the mean over seeds of each site's relativ
 difference holds noise) and the largest per-seed difference (noise included).
 
     python benchmarks/bench_auto.py [SCENARIO ...] [--replicates N] [--budget snr_rel=0.01]
+    python benchmarks/bench_auto.py --quick    # atp_glow cut to 30 frames, 2 replicates
 """
 
 from __future__ import annotations
@@ -29,10 +30,15 @@ from chiptwin.fidelity import resolve, run
 from chiptwin.fidelity.ladder import LEVELS, reference_levels, with_levels
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
+#: ``--quick``: a scene whose reference runs in about a second (atp_glow, closed-form kinetics,
+#: cut to 30 frames), 2 replicates; the same code path. A pyrosequencing scene's reference runs
+#: the cascade over at least the 8 key flows (seconds a run), too slow for a smoke run.
+QUICK = ("atp_glow", ["run.duration_s=30.0"])
 
 
-def bench(name: str, budget: dict[str, float], replicates: int, rtl: bool) -> None:
-    sets = [f'run.fidelity.{st}="auto"' for st in LEVELS]
+def bench(name: str, budget: dict[str, float], replicates: int, rtl: bool,
+          smaller: list[str] = ()) -> None:
+    sets = [*smaller] + [f'run.fidelity.{st}="auto"' for st in LEVELS]
     sets += [f"run.error_budget.{f}={v}" for f, v in budget.items()]
     s = load_scenario(SCENARIOS / f"{name}.toml", sets)
     with tempfile.TemporaryDirectory() as cache:
@@ -59,7 +65,7 @@ def bench(name: str, budget: dict[str, float], replicates: int, rtl: bool) -> No
         for key, out in (("signal_e", "signal"), ("snr_power", "snr_power")):
             diffs[out].append([a["sites"][i][key] / r["sites"][i][key] - 1 for i in seen])
     wa, wr = statistics.median(walls["auto"]), statistics.median(walls["reference"])
-    print(f"\n{name}: budget {budget}")
+    print(f"\n{name}{' (' + ' '.join(smaller) + ')' if smaller else ''}: budget {budget}")
     print(f"  auto picks    {choice.levels}")
     print(f"  reference     {ref_levels}")
     print(f"  wall (warm median of {replicates}): reference {wr:.3f} s, auto {wa:.3f} s, "
@@ -76,18 +82,23 @@ def bench(name: str, budget: dict[str, float], replicates: int, rtl: bool) -> No
               f"(worst site), largest single-seed |diff| {np.max(np.abs(d)):.4f}")
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenarios", nargs="*", default=["pyro_1fmol"])
+    ap.add_argument("--quick", action="store_true", help="atp_glow, 30 frames, 2 replicates")
     ap.add_argument("--replicates", type=int, default=8)
     ap.add_argument("--budget", action="append", default=[],
                     help="figure=value (default snr_rel=0.01)")
     ap.add_argument("--rtl", action="store_true", help="reference DSP at rtl (Verilator)")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     budget = {k: float(v) for k, v in (b.split("=") for b in args.budget)} or {"snr_rel": 0.01}
+    if args.quick:
+        bench(QUICK[0], budget, 2, args.rtl, QUICK[1])
+        return 0
     for name in args.scenarios:
         bench(name, budget, args.replicates, args.rtl)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

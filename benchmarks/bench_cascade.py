@@ -1,7 +1,8 @@
 """Cascade kinetics (issue 5): error vs solver tolerance vs wall time, wall time per flow, the
 cascade against the closed form, and the calibrated photon yield against REFERENCE §1.
 
-Usage: ``python benchmarks/bench_cascade.py [--repeat 3] [--methods LSODA Radau BDF]``.
+Usage: ``python benchmarks/bench_cascade.py [--quick] [--repeat 3] [--methods LSODA Radau BDF]``.
+``--quick``: LSODA at rtol 1e-6 only, one repeat: every table, a row or two each.
 Prints markdown tables. References: the 50-digit solution of the linear regime
 (:mod:`chiptwin.kinetics.cascade_reference`) for the hard cases, paper eq. 19 for the paper's
 limit, and the same model at rtol = 1e-12 (Radau) for the saturated, non-linear case.
@@ -68,7 +69,7 @@ def _reference_cases() -> dict[str, tuple]:
     return cases
 
 
-def error_table(methods, repeat: int) -> None:
+def error_table(methods, repeat: int, rtols=RTOLS) -> None:
     print("## Error vs solver tolerance vs wall time\n")
     print("rel = max relative error on windows holding > 1e-6 of the total; abs = max |error| / "
           "total photons; wall = build + photons(), median of", repeat, "(warm JIT)\n")
@@ -77,7 +78,7 @@ def error_table(methods, repeat: int) -> None:
     for name, (p, dna, tmpl, flows, n, period, edges, want) in _reference_cases().items():
         big = want > 1e-6 * want.sum()
         for method in methods:
-            for rtol in RTOLS:
+            for rtol in rtols:
                 walls = []
                 for _ in range(repeat):
                     t0 = time.perf_counter()
@@ -91,12 +92,12 @@ def error_table(methods, repeat: int) -> None:
     print()
 
 
-def per_flow(methods, repeat: int) -> None:
+def per_flow(methods, repeat: int, rtols=(1e-6, 1e-8, 1e-10)) -> None:
     print("## Cascade wall time per flow: pyro_1fmol program (2 sites, 18 bases, 25 flows)\n")
     print("| method | rtol | wall per flow (ms) | steps per flow | build (s) |")
     print("|---|---|---|---|---|")
     for method in methods:
-        for rtol in (1e-6, 1e-8, 1e-10):
+        for rtol in rtols:
             stats = []
             for _ in range(repeat):
                 src = cascade_pyrosequencing([1e-15, 1e-15], TEMPLATE, FLOWS, N_FLOWS, PERIOD,
@@ -159,19 +160,24 @@ def calibrated_yield() -> None:
           f"{0.01 * 1e-15 * N_A * 18:.3g} photons over the 18-base read at the measured yield.\n")
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="LSODA, rtol 1e-6, one repeat")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--methods", nargs="+", default=["LSODA", "Radau", "BDF"])
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
+    rtols = {"rtols": (1e-6,)} if args.quick else {}
+    if args.quick:
+        args.repeat, args.methods = 1, ["LSODA"]
     t0 = time.perf_counter()
     cascade_pyrosequencing([1e-15], "TA", "TA", 2, 10.0)  # JIT compile / cache load
     print(f"first cascade call (numba compile or cache load): {time.perf_counter() - t0:.2f} s\n")
-    per_flow(args.methods, args.repeat)
-    error_table(args.methods, args.repeat)
+    per_flow(args.methods, args.repeat, **rtols)
+    error_table(args.methods, args.repeat, **rtols)
     versus_closed_form()
     calibrated_yield()
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

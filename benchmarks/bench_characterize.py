@@ -13,7 +13,10 @@ Cold (first call, numba kernels compiled or loaded from cache) and warm (median 
 runs are reported with the images, the ADC samples drawn and the samples per second. Machines
 here are shared and noisy: medians, not minima.
 
-Usage: ``python benchmarks/bench_characterize.py [--side 1024] [--rounds 3] [--skip-large]``.
+Usage: ``python benchmarks/bench_characterize.py [--quick] [--side 1024] [--rounds 3]
+[--skip-large]``. ``--quick``: the reference chip only, temporal images of 1,024 values (8
+frames) instead of 16,384, no warm rounds (the cold run is reported as warm too): the same code
+path, a smoke run.
 """
 
 from __future__ import annotations
@@ -57,8 +60,8 @@ def samples(s, protocol: Protocol) -> int:
     return per_frame * n * (temporal * tiles + 2 * protocol.spatial_frames)
 
 
-def timed(s, rounds: int) -> dict:
-    protocol = Protocol()
+def timed(s, rounds: int, protocol: Protocol | None = None) -> dict:
+    protocol = protocol or Protocol()
     t0 = time.perf_counter()
     result = characterize(s, protocol)
     cold = time.perf_counter() - t0
@@ -81,13 +84,18 @@ def timed(s, rounds: int) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--quick", action="store_true",
+                   help="reference chip, 1,024-value images, no warm rounds")
     p.add_argument("--side", type=int, default=1024)
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--skip-large", action="store_true")
     args = p.parse_args(argv)
+    protocol = Protocol(min_values=1024) if args.quick else Protocol()
+    if args.quick:
+        args.rounds, args.skip_large = 0, True
     report = {"cores": available_cores(),
               "reference": timed(load_scenario(ROOT / "scenarios" / "pyro_1fmol.toml"),
-                                 args.rounds)}
+                                 args.rounds, protocol)}
     print(json.dumps({"reference": report["reference"]}, indent=2), flush=True)
     if not args.skip_large:
         report[f"{args.side}x{args.side}"] = timed(scaled(args.side), max(1, args.rounds - 2))

@@ -9,6 +9,7 @@ the output. The hard cases (:data:`chiptwin.fidelity.ladder.HARD_CASES`) run wit
 
     python benchmarks/bench_ladder.py [NAME ...] [--replicates N] [--budget snr_rel=0.01]
         [--rtl] [--out FILE.md]
+    python benchmarks/bench_ladder.py --quick    # atp_glow cut to 30 frames, 2 replicates
 
 NAME is a bundled scenario or a hard case; default: all of both. The DSP reference is ``fixed``
 (which the RTL equals bit for bit) unless ``--rtl``.
@@ -37,19 +38,24 @@ SMALLER = {
 }
 
 
+#: ``--quick``: one scene whose ladder (events reference included) runs in seconds, the same code
+#: path.
+QUICK = ("atp_glow", ["run.duration_s=30.0"])
+
 #: Scenes left out of the default list, and why.
 SKIP = {"ccd_two_wells": "its 0.1 pmol wells make the events level draw ~1e7 arrival times a "
                          "frame through the cascade: its events row takes hours"}
 
 
-def ladder_of(name: str, budget: dict[str, float], replicates: int, rtl: bool) -> str:
+def ladder_of(name: str, budget: dict[str, float], replicates: int, rtl: bool,
+              smaller: list[str] | None = None) -> str:
     if name in HARD_CASES:
         hc = HARD_CASES[name]
         scenario, sets, budget = hc.scenario, list(hc.overrides), hc.budget
         autos = [f'run.fidelity.{hc.stage}="auto"']
         title = f"hard case {name} ({hc.scenario}): {hc.why}"
     else:
-        scenario, sets = name, SMALLER.get(name, [])
+        scenario, sets = name, SMALLER.get(name, []) if smaller is None else smaller
         autos = [f'run.fidelity.{st}="auto"' for st in LEVELS]
         title = f"{name}" + (f" (smaller: {' '.join(sets)})" if sets else "")
     sets = sets + autos + [f"run.error_budget.{f}={v}" for f, v in budget.items()]
@@ -63,15 +69,19 @@ def ladder_of(name: str, budget: dict[str, float], replicates: int, rtl: bool) -
             f"{took:.0f} s\n\n```\n{table(ladder)}\n```\n")
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("names", nargs="*")
+    ap.add_argument("--quick", action="store_true", help="atp_glow, 30 frames, 2 replicates")
     ap.add_argument("--replicates", type=int, default=3)
     ap.add_argument("--budget", action="append", default=[], help="figure=value")
     ap.add_argument("--rtl", action="store_true", help="reference DSP at rtl (Verilator)")
     ap.add_argument("--out", help="also append each table to this markdown file")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     budget = {k: float(v) for k, v in (b.split("=") for b in args.budget)} or {"snr_rel": 0.01}
+    if args.quick:
+        print(ladder_of(QUICK[0], budget, 2, args.rtl, QUICK[1]))
+        return 0
     names = args.names or [p.stem for p in sorted(SCENARIOS.glob("*.toml"))
                            if p.stem not in SKIP] + sorted(HARD_CASES)
     for name, why in SKIP.items():
@@ -83,7 +93,8 @@ def main() -> None:
         if args.out:
             with open(args.out, "a") as f:
                 f.write(text + "\n")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

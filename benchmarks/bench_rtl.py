@@ -4,6 +4,7 @@ Run from the repository root::
 
     python benchmarks/bench_rtl.py [--kinds fir,average] [--beats 1000000] [--icarus-beats 20000]
                                    [--json out.json]
+    python benchmarks/bench_rtl.py --quick    # average bank, 10,000 / 1,000 beats, no builds timed
 
 Build times of each block kind's bank (``rtl_ref.suite``), in fresh build directories:
 
@@ -96,14 +97,19 @@ def sim_times(kinds: list[str], beats: int, icarus_beats: int) -> list[dict]:
     return rows
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--quick", action="store_true",
+                   help="simulation of the average bank only, 10,000 / 1,000 beats; no build "
+                        "timings (cold builds take minutes)")
     p.add_argument("--kinds", default=",".join(suite.KINDS))
     p.add_argument("--beats", type=int, default=1_000_000)
     p.add_argument("--icarus-beats", type=int, default=20_000)
     p.add_argument("--skip-builds", action="store_true")
     p.add_argument("--json", type=Path)
-    args = p.parse_args()
+    args = p.parse_args(argv)
+    if args.quick:
+        args.kinds, args.beats, args.icarus_beats, args.skip_builds = "average", 10_000, 1_000, True
     kinds = args.kinds.split(",")
     print(f"verilator {tools.require('verilator').version}, icarus "
           f"{tools.require('icarus').version}, ccache {'yes' if tools.ccache() else 'no'}, "
@@ -128,7 +134,8 @@ def main() -> None:
               f"{r['model_s']:>9.4f}")
     if args.json:
         args.json.write_text(json.dumps(out, indent=2))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

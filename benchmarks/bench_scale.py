@@ -7,13 +7,15 @@ Three measurements, each warm (numba kernels compiled and cached first):
    same pixel-frames with the same samples per frame (M = 4 CMS reset and signal samples, kTC,
    13-bit ADC) in the same process, interleaved. ``run()`` also makes the light, the moments, the
    DSP and the detection; the ratio says what the chip model costs over the bare chain.
-2. Peak RSS of ``run()`` at 256² for 1,520 and 3,040 frames, each in a fresh process
+2. Peak RSS of ``run()`` at 256² for 1,520 and 3,040 frames, each in a fresh process, and of
+   the reference chip (``pyro_1fmol``) after the imports and after one run
    (``VmHWM`` of ``/proc/self/status``: ``ru_maxrss`` survives ``exec`` on Linux, so a child
    started from this process would report this process's peak), to show memory flat in frames.
 3. ``pyro_array_256`` end to end (``run()``, then the outputs written), wall time and peak RSS.
 
-Usage: ``python benchmarks/bench_scale.py [--sides 64 128 256] [--rounds 3] [--skip-rss]
-[--skip-array]``. Prints a table and one JSON line.
+Usage: ``python benchmarks/bench_scale.py [--quick] [--sides 64 128 256] [--rounds 3]
+[--skip-rss] [--skip-array]``. Prints a table and one JSON line. ``--quick``: measurement 1 at
+32² over 500 frames (8 flows), one round; 2 and 3 (fresh processes, large arrays) not run.
 """
 
 from __future__ import annotations
@@ -41,8 +43,11 @@ ARRAY = ROOT / "scenarios" / "pyro_array_256.toml"
 
 
 def grown(side: int, duration_s: float = 1520.0):
-    """``pyro_1fmol`` on a ``side × side`` array, frame memory scaled to 31 frames."""
+    """``pyro_1fmol`` on a ``side × side`` array, frame memory scaled to 31 frames; below 1,520 s
+    its flows cut to the 8 that read the key (which need 500 s)."""
     s = load_scenario(PYRO)
+    if duration_s < 1520.0:
+        s = replace(s, assay=replace(s.assay, n_flows=8))
     chip = s.chip
     frame_bits = side * side * chip.samples_per_frame * chip.memory.word_bits
     capacity = 31 * frame_bits + side * side * chip.memory.word_bits
@@ -77,10 +82,10 @@ def time_chain(s) -> float:
     return time.perf_counter() - t0
 
 
-def per_pixel_frame(sides: list[int], rounds: int) -> list[dict]:
+def per_pixel_frame(sides: list[int], rounds: int, duration_s: float = 1520.0) -> list[dict]:
     rows = []
     for side in sides:
-        s = grown(side)
+        s = grown(side, duration_s)
         time_run(s), time_chain(s)  # warm
         runs, chains, stages_s = [], [], []
         for _ in range(rounds):
@@ -88,7 +93,7 @@ def per_pixel_frame(sides: list[int], rounds: int) -> list[dict]:
             runs.append(wall)
             stages_s.append(st)
             chains.append(time_chain(s))
-        pf = side * side * grown(side).run.duration_s / s.chip.timing.frame_period_s
+        pf = side * side * s.run.duration_s / s.chip.timing.frame_period_s
         r, c = statistics.median(runs), statistics.median(chains)
         best = stages_s[int(np.argsort(runs)[len(runs) // 2])]
         rows.append({"side": side, "run_s": r, "run_ns_per_pixel_frame": r / pf * 1e9,
@@ -114,6 +119,16 @@ def peak_rss_mb(side: int, duration_s: float) -> float:
     return int(out.stdout.split()[-1]) / 1024
 
 
+def reference_rss_mb() -> tuple[float, float]:
+    """Peak RSS (MB) of a fresh process after importing the twin, and after one ``pyro_1fmol``."""
+    code = (f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import bench_scale; "
+            "from chiptwin.fidelity import run; a = bench_scale.vm_hwm_kb(); "
+            f"run({str(PYRO)!r}); print(a, bench_scale.vm_hwm_kb())")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    before, after = (int(v) / 1024 for v in out.stdout.split()[-2:])
+    return before, after
+
+
 def array_end_to_end() -> dict:
     code = (f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import bench_scale; "
             "import time, tempfile, json; from chiptwin.fidelity import run; "
@@ -131,14 +146,17 @@ def array_end_to_end() -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--quick", action="store_true", help="32², 500 frames, 1 round")
     p.add_argument("--sides", type=int, nargs="*", default=[64, 128, 256])
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--skip-rss", action="store_true")
     p.add_argument("--skip-array", action="store_true")
     args = p.parse_args(argv)
+    if args.quick:
+        args.sides, args.rounds, args.skip_rss, args.skip_array = [32], 1, True, True
     print(f"numba threads: {numba.get_num_threads()}")
     result: dict = {"threads": numba.get_num_threads()}
-    rows = per_pixel_frame(args.sides, args.rounds)
+    rows = per_pixel_frame(args.sides, args.rounds, 500.0 if args.quick else 1520.0)
     print("| array | run() wall | per pixel-frame | sensor_chain | ratio | pixel stage |")
     print("|---|---|---|---|---|---|")
     for r in rows:
@@ -152,6 +170,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"peak RSS at 256²: 1,520 frames {rss[1520]:.0f} MB, 3,040 frames {rss[3040]:.0f} MB"
               f" (ratio {rss[3040] / rss[1520]:.3f})")
         result["peak_rss_mb_256"] = rss
+        before, after = reference_rss_mb()
+        print(f"peak RSS, reference chip: {before:.0f} MB after the imports, {after:.0f} MB "
+              "after one pyro_1fmol run")
+        result["peak_rss_mb_reference"] = {"imported": before, "after_run": after}
     if not args.skip_array:
         arr = array_end_to_end()
         print(f"pyro_array_256: run {arr['run_s']:.1f} s, outputs {arr['write_s']:.1f} s, "

@@ -15,6 +15,7 @@ bias.
     python benchmarks/bench_shortcuts.py                      # every scenario where it applies
     python benchmarks/bench_shortcuts.py pyro_1fmol --seeds 5
     python benchmarks/bench_shortcuts.py --profile             # warm stage times, before/after
+    python benchmarks/bench_shortcuts.py --quick               # pyro_1fmol, 500 frames, 2 seeds
 
 The trace without frame steps changes no number: it is timed on the same seed (simulate alone,
 the chip model's share) and its outputs are checked identical.
@@ -42,6 +43,8 @@ ROOT = Path(__file__).resolve().parents[1] / "scenarios"
 ALL = ("pyro_1fmol", "pyro_array_256", "pyro_paper_yield_fast", "ccd_100fmol", "atp_glow",
        "atp_dose_response", "luciferase_label", "pyro_paper_yield", "crosstalk_microarray",
        "ccd_two_wells", "snr10_requirement")
+#: ``--quick``: one scene cut to 8 flows (tests/conftest.py's REDUCED), 2 seeds; the same code path.
+QUICK = ("pyro_1fmol", ["assay.n_flows=8", "run.duration_s=500.0"])
 
 
 def _once(s, scene, seed: int, carry: bool) -> tuple[float, dict]:
@@ -67,8 +70,8 @@ def _figures(a: dict, b: dict) -> dict[str, float]:
     }
 
 
-def bench(name: str, seeds: int) -> None:
-    s = load_scenario(ROOT / f"{name}.toml")
+def bench(name: str, seeds: int, sets: list[str] = ()) -> None:
+    s = load_scenario(ROOT / f"{name}.toml", sets)
     scene = prepare(s)
     idx = np.unique(stages.site_pixel_indices(s))
     if not shortcuts.applies(s, s.run.fidelity.photons, idx, False, False):
@@ -103,9 +106,9 @@ def _chip(s, scene, steps: bool):
     return time.perf_counter() - t0, out, rec
 
 
-def bench_steps(name: str, seeds: int) -> None:
+def bench_steps(name: str, seeds: int, sets: list[str] = ()) -> None:
     """The trace without frame steps: the same run (same seed), full trace against compact."""
-    s = load_scenario(ROOT / f"{name}.toml")
+    s = load_scenario(ROOT / f"{name}.toml", sets)
     scene = prepare(s)
     for steps in (True, False):
         _chip(s, scene, steps)
@@ -121,11 +124,11 @@ def bench_steps(name: str, seeds: int) -> None:
           f"outputs {'identical' if same else 'DIFFER'}")
 
 
-def profile(name: str, repeats: int) -> None:
+def profile(name: str, repeats: int, sets: list[str] = ()) -> None:
     """Warm ``stage_time_s`` of the run's stages (the median of ``repeats`` runs), full path
     against every shortcut that applies (carried dark pixels where it does, the trace without
     frame steps everywhere)."""
-    s = load_scenario(ROOT / f"{name}.toml")
+    s = load_scenario(ROOT / f"{name}.toml", sets)
     rows = {}
     for label, carry, steps in (("full", False, True), ("shortcuts", True, False)):
         runs = []
@@ -145,24 +148,30 @@ def profile(name: str, repeats: int) -> None:
         print(f"{name:24s} {label:9s} {wall:8.3f} s   {stages_s}")
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("scenarios", nargs="*", default=list(ALL))
+    p.add_argument("--quick", action="store_true", help="pyro_1fmol, 500 frames, 2 seeds")
     p.add_argument("--seeds", type=int, default=3,
                    help="pairs (full, carried) at seeds s … s + N − 1; times are their medians")
     p.add_argument("--only", choices=("carried", "steps"), help="one shortcut only")
     p.add_argument("--profile", action="store_true",
                    help="warm stage times (prepare, simulate, detect), full against shortcuts")
-    args = p.parse_args()
+    args = p.parse_args(argv)
+    sets: list[str] = []
+    if args.quick:
+        args.scenarios, sets, args.seeds = [QUICK[0]], QUICK[1], 2
+        print(f"quick: {QUICK[0]} --set {' '.join(sets)}")
     for name in args.scenarios:
         if args.profile:
-            profile(name, args.seeds)
+            profile(name, args.seeds, sets)
             continue
         if args.only != "steps":
-            bench(name, args.seeds)
+            bench(name, args.seeds, sets)
         if args.only != "carried":
-            bench_steps(name, args.seeds)
+            bench_steps(name, args.seeds, sets)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

@@ -77,8 +77,8 @@ def answer_lines(summary: dict[str, Any]) -> list[str]:
 
 def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
     """Each metric against each budget axis with its interval band (one line per combination
-    of the given axes), the requirement line and the answer marked; a heat map of the status for
-    two budget axes; memory occupancy against capacity."""
+    of the given axes), the requirement line and the answer marked; a map of the status over
+    two budget axes (one facet per value of a third); memory occupancy against capacity."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -121,15 +121,16 @@ def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
                     c = np.array(sorted(cap), dtype=float)
                     ax.step(c[:, 0], c[:, 1], "k:", where="mid", label="capacity")
             _log_if_wide(ax, axis, points, name)
-            ax.set(xlabel=axis, ylabel=f"{name} ({CATALOGUE[name].unit})",
-                   title=f"{name} vs {axis} ({summary['confidence']:.0%} interval band)")
+            ax.set(xlabel=axis, ylabel=f"{name} ({CATALOGUE[name].unit})")
+            ax.set_title(f"{name} vs {axis} ({summary['confidence']:.0%} interval band)",
+                         fontsize=9)
             if ax.get_legend_handles_labels()[0]:
                 ax.legend(fontsize=7)
             fname = f"{name}_vs_{axis.replace('.', '_')}.png"
             plots.append(_save(fig, folder, fname, f"{name} against {axis}; band: two-sided "
                                f"{summary['confidence']:.0%} interval; star: the answer"))
     if len(budget) >= 2:
-        plots.append(_heat_map(summary, budget[:2], folder))
+        plots.append(_heat_map(summary, budget, folder))
     return plots
 
 
@@ -151,32 +152,72 @@ def _log_if_wide(ax, axis: str, points: list[dict], name: str) -> None:
         ax.set_yscale("log")
 
 
-def _heat_map(summary: dict, budget: list[str], folder: Path):
-    """Status over the first two budget axes; with more axes, the best status over the others
-    (green: some setting of them meets the requirement)."""
-    import matplotlib.pyplot as plt
+#: The status of a point as a number on the status map (``measured``: no requirement to decide).
+STATUS_CODE = {"invalid": -1, "fail": 0, "undecided": 1, "measured": 1, "pass": 2}
+#: Facets of the status map per row.
+FACETS_PER_ROW = 4
 
-    code = {"pass": 2, "undecided": 1, "fail": 0, "measured": 1, "invalid": -1}
-    xs = sorted({p["params"][budget[0]] for p in summary["points"]})
-    ys = sorted({p["params"][budget[1]] for p in summary["points"]})
-    grid = np.full((len(ys), len(xs)), np.nan)
-    for p in summary["points"]:
-        if p["status"] in code:
-            cell = (ys.index(p["params"][budget[1]]), xs.index(p["params"][budget[0]]))
-            grid[cell] = np.fmax(grid[cell], code[p["status"]])
-    fig, ax = plt.subplots(figsize=(6.5, 4))
+
+def _heat_map(summary: dict, budget: list[str], folder: Path):
+    """The status map (:func:`status_figure`), saved."""
+    fig = status_figure(summary, budget)
+    facets = f", one panel per {budget[2]}" if len(budget) > 2 else ""
+    rest = " (best over the axes beyond the third)" if len(summary["axes"]) > 3 else ""
+    return _save(fig, folder, "status_map.png",
+                 f"Status over {budget[0]} and {budget[1]}{facets}{rest}; blank: no point "
+                 "run there", tight=False)
+
+
+def status_figure(summary: dict, budget: list[str]):
+    """Status over the first two budget axes, one facet per value of the third; with more axes
+    (or given ones), the best status over them: green where some setting of them meets the
+    requirement."""
+    import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
 
+    facet = budget[2] if len(budget) > 2 else None
+    values = sorted({p["params"][facet] for p in summary["points"]}) if facet else [None]
+    xs = sorted({p["params"][budget[0]] for p in summary["points"]})
+    ys = sorted({p["params"][budget[1]] for p in summary["points"]})
+    cols = min(len(values), FACETS_PER_ROW)
+    rows = -(-len(values) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(1.6 + 2.9 * cols, 0.8 + 3.0 * rows),
+                             squeeze=False, sharex=True, sharey=True, layout="constrained")
     cmap = ListedColormap(["lightgrey", "tab:red", "gold", "tab:green"])
-    im = ax.imshow(grid, origin="lower", cmap=cmap, vmin=-1.5, vmax=2.5, aspect="auto")
-    ax.set_xticks(range(len(xs)), [str(x) for x in xs], fontsize=7)
-    ax.set_yticks(range(len(ys)), [str(y) for y in ys], fontsize=7)
-    ax.set(xlabel=budget[0], ylabel=budget[1], title="Requirement met (green), failed (red), "
-           "undecided (gold), invalid (grey)")
-    fig.colorbar(im, ax=ax, ticks=[-1, 0, 1, 2], label="invalid / fail / undecided / pass")
-    rest = " (best over the other budget axes)" if len(summary["axes"]) > 2 else ""
-    return _save(fig, folder, "status_map.png",
-                 f"Status over {budget[0]} and {budget[1]}{rest}")
+    rotate = max(len(str(x)) for x in xs) * len(xs) > 24
+    for ax, value in zip(axes.flat, values, strict=False):
+        grid = _status_grid(summary["points"], budget, xs, ys, facet, value)
+        im = ax.imshow(grid, origin="lower", cmap=cmap, vmin=-1.5, vmax=2.5, aspect="auto")
+        ax.set_xticks(range(len(xs)), [str(x) for x in xs], fontsize=7,
+                      rotation=45 if rotate else 0, ha="right" if rotate else "center")
+        ax.set_yticks(range(len(ys)), [str(y) for y in ys], fontsize=7)
+        if facet:
+            ax.set_title(f"{facet} = {value}", fontsize=8)
+    for i, ax in enumerate(axes.flat):
+        if i >= len(values):
+            fig.delaxes(ax)
+        elif i + cols >= len(values):  # no facet below it: its own x labels
+            ax.xaxis.set_tick_params(labelbottom=True)
+    fig.supxlabel(budget[0], fontsize=9)
+    fig.supylabel(budget[1], fontsize=9)
+    fig.suptitle("Status of each point" + (" (best over the other axes)"
+                                            if len(summary["axes"]) > len(budget[:3]) else ""),
+                 fontsize=10)
+    bar = fig.colorbar(im, ax=axes.flat[:len(values)], ticks=[-1, 0, 1, 2], shrink=0.9)
+    middle = "undecided" if summary["requirement"] else "measured"
+    bar.ax.set_yticklabels(["invalid", "fail", middle, "pass"], fontsize=8)
+    return fig
+
+
+def _status_grid(points: list[dict], budget: list[str], xs: list, ys: list,
+                 facet: str | None, value) -> np.ndarray:
+    """The best status in each (x, y) cell among the points at ``facet = value``."""
+    grid = np.full((len(ys), len(xs)), np.nan)
+    for p in points:
+        if p["status"] in STATUS_CODE and (facet is None or p["params"][facet] == value):
+            cell = (ys.index(p["params"][budget[1]]), xs.index(p["params"][budget[0]]))
+            grid[cell] = np.fmax(grid[cell], STATUS_CODE[p["status"]])
+    return grid
 
 
 def _num(v) -> float:
@@ -184,10 +225,11 @@ def _num(v) -> float:
         v, int | float) else float(v)
 
 
-def _save(fig, folder: Path, name: str, caption: str) -> tuple[str, str]:
+def _save(fig, folder: Path, name: str, caption: str, tight: bool = True) -> tuple[str, str]:
     import matplotlib.pyplot as plt
 
-    fig.tight_layout()
+    if tight:
+        fig.tight_layout()
     tmp = folder / f".{name}.tmp.png"
     fig.savefig(tmp, dpi=100)
     os.replace(tmp, folder / name)
@@ -210,13 +252,14 @@ def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> st
     lines += [f"Runs: {r['total']} stored ({r['ok']} ok, {r['invalid']} invalid, {r['error']} "
               f"error); {r.get('computed', 0)} computed in {summary['wall_time_s']:.1f} s on "
               f"{summary['executor']['kind']} × {summary['executor']['workers']}.", ""]
-    lines += ["## Points", "", "| point | status | n | " + " | ".join(_metric_cols(summary))
-              + " |", "|---|---|---|" + "---|" * len(_metric_cols(summary))]
+    lines += ["## Points", "", "The requirement a point fails comes first (– where it fails "
+              "none).", "", "| fails | point | status | n | " + " | ".join(_metric_cols(summary))
+              + " |", "|---|---|---|---|" + "---|" * len(_metric_cols(summary))]
     for p in summary["points"]:
         label = ", ".join(f"{k}={v}" for k, v in p["params"].items())
         cells = [_cell(p["metrics"].get(m)) for m in _metric_cols(summary)]
-        lines.append(f"| {label} | {p['status']} | {p['replicates']} | " + " | ".join(cells)
-                     + " |")
+        lines.append(f"| {failing(p)} | {label} | {p['status']} | {p['replicates']} | "
+                     + " | ".join(cells) + " |")
     bad = [p for p in summary["points"] if p["message"]]
     if bad:
         lines += ["", "## Invalid or failed points", ""]
@@ -227,8 +270,17 @@ def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> st
     return "\n".join(lines) + "\n"
 
 
+def failing(point: dict) -> str:
+    """The requirements a point fails (``frames_dropped <= 0``), or ``–``."""
+    failed = [q for q, d in point.get("decisions", {}).items() if d == "fail"]
+    return "; ".join(failed) or "–"
+
+
 def _metric_cols(summary: dict) -> list[str]:
-    return list(dict.fromkeys(m for p in summary["points"] for m in p["metrics"]))
+    """Every metric of the points, those a requirement names first."""
+    required = [q.split()[0] for q in summary["requirement"]]
+    shown = dict.fromkeys(m for p in summary["points"] for m in p["metrics"])
+    return [m for m in required if m in shown] + [m for m in shown if m not in required]
 
 
 def _cell(e: dict | None) -> str:
