@@ -209,6 +209,7 @@ def _dsp_report(scenario, json_path: str | None) -> int:
     if json_path:
         _check_json_path(json_path)
     report = dsp_report(scenario, stage_rng(scenario.scenario.seed, "dsp_stress"))
+    print(f"{scenario.scenario.name}: codes from the {report['converter']} converter")
     print(format_error_table(report))
     print(f"all bounds met: {report['all_bounds_ok']}")
     if json_path:

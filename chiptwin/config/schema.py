@@ -8,6 +8,7 @@ cross-field rules live in :mod:`chiptwin.config.consistency`.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
+from typing import Any
 
 from chiptwin.config.fields import param
 from chiptwin.constants import MAX_TIME_S, TICK_S
@@ -287,6 +288,11 @@ class Pixel:
                               doc="V; output at zero charge, keeps noise in range; " + VOLTS)
 
 
+#: ``[chip.adc]`` keys of the converter as built (issue 17), each 0 / off for the ideal ADC.
+ADC_EFFECTS = ("comparator_noise_lsb", "comparator_noise_uV", "inl_max_lsb", "inl_shape",
+               "inl_table", "dnl_rms_lsb", "offset_sigma_lsb", "gain_sigma")
+
+
 @dataclass(frozen=True)
 class Adc:
     """``[chip.adc]``: the per-pixel ADC (JSSC 2006: 13 bits, one channel per pixel)."""
@@ -351,6 +357,13 @@ class Adc:
         """One conversion: ``cycles_per_conversion`` (single slope: 2^bits) cycles. Unit: s."""
         cycles = self.cycles_per_conversion or 2**self.bits
         return cycles / self.clock_hz
+
+    @property
+    def as_built_keys(self) -> dict[str, Any]:
+        """The as-built effects that are set, key → value (empty: the ideal converter)."""
+        keys = {k: getattr(self, k) for k in ADC_EFFECTS}
+        keys["inl_shape"] = None if self.inl_shape != "table" else "table"
+        return {k: v for k, v in keys.items() if v}
 
     @property
     def comparator_noise_total_lsb(self) -> float:
@@ -492,6 +505,10 @@ class Fidelity:
             "same mean and variance (faster; wrong for dim pixels)")
     dsp: str = param("", choices=("", "float", "fixed", "rtl", "auto"),
                      doc='"" = [chip.dsp] mode')
+    adc: str = param(
+        "as_built", choices=("ideal", "as_built", "auto"),
+        doc='the converter: "as_built" = [chip.adc] as configured (the ideal rounding ADC when '
+            'no effect is set), "ideal" = every as-built effect zeroed')
 
     def auto_stages(self) -> tuple[str, ...]:
         """The stages set to ``"auto"``."""

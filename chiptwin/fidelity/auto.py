@@ -3,8 +3,8 @@
 The levels, the choice and the estimates cache are :mod:`chiptwin.twin.levels` (below the twin's
 runner, which needs them to run a resolved scenario); this module runs scenes, so it sits above
 the twin: :class:`Calibrations` measures what the cache lacks (the expected-level runs of the
-kinetics and optics calibrations, the analytic bounds of the photons, shot and DSP levels on the
-scene's own figures), :func:`resolve` resolves a scenario's ``auto`` keys with it and
+kinetics, optics and ADC calibrations, the analytic bounds of the photons, shot and DSP levels
+on the scene's own figures), :func:`resolve` resolves a scenario's ``auto`` keys with it and
 :func:`run` is :func:`chiptwin.twin.runner.run` with ``auto`` resolved so.
 """
 
@@ -76,6 +76,12 @@ class Calibrations(CachedEstimates):
         if self.ref["optics"] == "raytrace":
             how += "; " + _raytrace_note(with_levels(self.s, self.ref))
         return Estimate(est.errors, how)
+
+    def _adc(self, level: str) -> Estimate:
+        keys = ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}"
+                         for k, v in self.s.chip.adc.as_built_keys.items())
+        return self._calibrated("adc", level, f"calibration: the expected-level run with the "
+                                f"ideal converter against the converter as built ({keys})")
 
     def _calibrated(self, stage: str, level: str, how: str) -> Estimate:
         base = self._expected_levels()  # its stage is at the reference: that side is the base

@@ -57,7 +57,7 @@ from chiptwin.twin.runner import chip_sensor
 #: Stages whose levels all draw the same random numbers for the same seed (the photon levels
 #: draw differently: none, counts, arrival times; the shot levels a normal or a Poisson count),
 #: except at the events level, whose arrival times follow the light each level makes.
-SAME_DRAWS = frozenset({"kinetics", "optics", "dsp"})
+SAME_DRAWS = frozenset({"kinetics", "optics", "dsp", "adc"})
 
 
 @dataclass(frozen=True)
@@ -126,8 +126,8 @@ def plan(s: Scenario, reference: dict[str, str] | None = None) -> list[Rung]:
     rungs = [Rung("reference", _label(ref), ref)]
     for stage, levels in LEVELS.items():
         for level in levels:
-            if level == ref[stage]:
-                continue
+            if level == ref[stage] or (stage == "adc" and not s.chip.adc.as_built_keys):
+                continue  # an ideal converter: its two levels are one converter
             same = stage in SAME_DRAWS and ref["photons"] != "events"
             rungs.append(Rung(stage, level, {**ref, stage: level}, crn=same))
     cheapest = {stage: levels[0] for stage, levels in LEVELS.items()}

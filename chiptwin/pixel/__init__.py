@@ -47,6 +47,7 @@ from chiptwin.pixel.converter import (
     check_transition_table,
     load_transition_table,
 )
+from chiptwin.pixel.expected_adc import cms_moments
 from chiptwin.pixel.frames import CHUNK_PIXELS, binned_codes, chunk_streams
 from chiptwin.pixel.sensor import (
     clipped_poisson_moments,
@@ -72,6 +73,7 @@ __all__ = [
     "binned_codes",
     "chunk_streams",
     "clipped_poisson_moments",
+    "cms_moments",
     "conversion_gain_uV_per_e",
     "dark_current_e_per_s",
     "expected_frame",

@@ -1,6 +1,7 @@
 """``chiptwin dsp-report``: every DSP routine, bit-accurate vs float, on a scenario's own data.
 
-The scenario runs once at the ``binned`` level; the ADC samples it produced feed each routine in
+The scenario runs once at the ``binned`` level, through its converter (ideal, or as built: the
+header names its keys); the ADC samples it produced feed each routine in
 the order the chip uses them (CMS → dark reference → background subtraction → averaging) and the
 routines the chain does not use (kinetics-weighted accumulation, line binning, the 8-tap FIR,
 the Wiener equalizer) on the background-subtracted frames. Stress data (every register driven to
@@ -44,7 +45,21 @@ def dsp_report(s: Scenario, rng: np.random.Generator) -> dict[str, Any]:
     cases.update({f"stress: {label}": case for label, case in default_cases(rng).items()})
     report = error_report(cases)
     report["scenario"] = s.scenario.name
+    report["converter"] = converter_label(s)
     return report
+
+
+def converter_label(s: Scenario) -> str:
+    """Which converter produced the scenario's codes: ``ideal`` or ``as built`` with its keys
+    (``[run.fidelity] adc = "ideal"`` zeroes them)."""
+    from chiptwin.twin.runner import adc_level
+
+    if adc_level(s) == "ideal":
+        zeroed = (" (as-built effects zeroed by run.fidelity.adc)"
+                  if s.chip.adc.as_built_keys else "")
+        return "ideal" + zeroed
+    keys = ", ".join(f"{k} = {v!r}" for k, v in s.chip.adc.as_built_keys.items())
+    return f"as built ({keys}, ramp = {s.chip.adc.ramp!r})"
 
 
 def scenario_cases(s: Scenario) -> dict[str, Case]:

@@ -21,6 +21,10 @@ error"). The error of a level is taken against the stage's most faithful level t
   rounded normal of the same mean and variance (:func:`gaussian_tv`) at the smallest mean charge
   a site pixel holds in a frame, taken as the bound on each relative figure (the moments agree
   to the 1/12 e⁻² of rounding; the TV distance bounds any probability computed from a count).
+* **adc** (ideal vs as_built): exact 0 when ``[chip.adc]`` sets no as-built effect (the two
+  levels are one converter); otherwise a calibration like kinetics and optics: the scene at the
+  expected level with the converter as built (its transition tables summed against the
+  Gaussian, :func:`chiptwin.pixel.cms_moments`) and with every effect zeroed.
 * **dsp**: ``rtl`` equals ``fixed`` bit for bit (co-simulated, ``tests/rtl``); ``fixed`` differs
   from ``float`` by the chain's rounding (half an output LSB per rounding step, 0 when M, K and N
   are powers of two) unless the N-frame accumulator is narrower than its exact width
@@ -60,7 +64,7 @@ from scipy import stats
 from chiptwin import __version__
 from chiptwin.config import Scenario, ScenarioError
 from chiptwin.config.consistency import check_consistency
-from chiptwin.config.schema import BUDGET_FIGURES
+from chiptwin.config.schema import BUDGET_FIGURES, Adc
 
 #: The levels of each stage, cheapest first (the last is the reference where the scene accepts it:
 #: optics ``raytrace`` needs contact imaging and a physical emitter law, else ``psf``).
@@ -70,12 +74,13 @@ LEVELS: dict[str, tuple[str, ...]] = {
     "optics": ("na2", "psf", "raytrace"),
     "shot": ("gaussian", "poisson"),
     "dsp": ("float", "fixed", "rtl"),
+    "adc": ("ideal", "as_built"),
 }
 
 
 #: The order stages are chosen in: the largest saving first (ladder of pyro_1fmol: cascade
 #: 2.6×, rtl DSP and events photons next; optics and shot noise save least).
-ORDER = ("kinetics", "dsp", "photons", "optics", "shot")
+ORDER = ("kinetics", "dsp", "photons", "adc", "optics", "shot")
 
 
 #: How many standard deviations of the reference's figure the ``expected`` level is charged:
@@ -97,7 +102,17 @@ def with_levels(s: Scenario, levels: dict[str, str]) -> Scenario:
     """``s`` at the given stage levels (the DSP level set on the chip, as ``chip.dsp.mode``)."""
     fid = replace(s.run.fidelity, **{k: v for k, v in levels.items() if k != "dsp"}, dsp="")
     chip = replace(s.chip, dsp=replace(s.chip.dsp, mode=levels.get("dsp", s.dsp_level)))
+    if fid.adc == "ideal":
+        chip = replace(chip, adc=ideal_adc(chip.adc))
     return replace(s, run=replace(s.run, fidelity=fid), chip=chip)
+
+
+def ideal_adc(adc: Adc) -> Adc:
+    """``[chip.adc]`` with every as-built effect zeroed: today's rounding converter (the nominal
+    range, offset and gain error stay)."""
+    return replace(adc, comparator_noise_lsb=0.0, comparator_noise_uV=0.0, inl_max_lsb=0.0,
+                   inl_shape="quadratic", inl_table="", dnl_rms_lsb=0.0, offset_sigma_lsb=0.0,
+                   gain_sigma=0.0)
 
 
 def reference_levels(s: Scenario) -> dict[str, str]:
@@ -231,6 +246,8 @@ class CachedEstimates:
             return Estimate.exact("the expected photon level draws no counts")
         if level == self.ref[stage]:
             return Estimate.exact("the most faithful level this scene accepts")
+        if stage == "adc" and not self.s.chip.adc.as_built_keys:
+            return Estimate.exact("the scene's converter is ideal: both levels are one converter")
         key = _scene_hash(self.s, stage, level, self.ref[stage])
         hit = _cache_get(self.cache, key)
         if hit is not None:
@@ -383,5 +400,6 @@ def describe(choice: AutoChoice) -> list[str]:
     return lines
 
 
-__all__ = ["LEVELS", "AutoChoice", "CachedEstimates", "Estimate", "describe", "figure_errors",
-           "figures", "gaussian_tv", "reference_levels", "resolve", "with_levels"]
+__all__ = ["LEVELS", "ORDER", "AutoChoice", "CachedEstimates", "Estimate", "describe",
+           "figure_errors", "figures", "gaussian_tv", "ideal_adc", "reference_levels", "resolve",
+           "with_levels"]

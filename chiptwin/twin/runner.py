@@ -147,7 +147,14 @@ def fidelity_used(s: Scenario) -> dict[str, str]:
             "photons": s.run.fidelity.photons,
             "optics": "none" if flux else s.run.fidelity.optics,
             "shot": "none" if s.run.fidelity.photons == "expected" else s.run.fidelity.shot,
-            "dsp": s.dsp_level}
+            "dsp": s.dsp_level,
+            "adc": adc_level(s)}
+
+
+def adc_level(s: Scenario) -> str:
+    """The converter that made the codes: ``as_built`` when ``[chip.adc]`` sets an as-built
+    effect and the fidelity keeps it, else ``ideal``."""
+    return "as_built" if s.run.fidelity.adc == "as_built" and s.chip.adc.as_built_keys else "ideal"
 
 
 def prepare(s: Scenario, timer: StageTimer | None = None) -> Scene:

@@ -189,6 +189,9 @@ def pixel_frames(scene: Scene, t_int_s: float, gain_error: float, start: int = 0
     -----
     Element by element the same arithmetic as :func:`chiptwin.pixel.mean_electrons` and
     :func:`chiptwin.pixel.expected_frame` called on one frame at a time, so the numbers are those.
+    With a converter as built (``sensor.converter`` not ideal) the CMS moments are the
+    converter's own, its transition tables summed against the Gaussian samples
+    (:func:`chiptwin.pixel.cms_moments`); ``gain_error`` is then in the converter.
     """
     sensor = scene.sensor
     stop = scene.site_photons.shape[1] if stop is None else stop
@@ -197,6 +200,14 @@ def pixel_frames(scene: Scene, t_int_s: float, gain_error: float, start: int = 0
     mean_e = pixel.mean_electrons(photons, sensor.qe, sensor.gain_map, dark_e)
     # pixel.expected_frame's arithmetic on the charge just computed (it would compute it again)
     cds_e, cds_var_e2 = pixel.clipped_poisson_moments(mean_e, sensor.full_well_e)
+    conv = sensor.converter
+    if conv is not None and not conv.ideal:  # the converter as built: its tables, exactly
+        full = int(np.count_nonzero(mean_e >= sensor.full_well_e))
+        mean, var = pixel.cms_moments(
+            conv, cds_e, cds_var_e2, ktc_e=sensor.ktc_e, read_noise_e=sensor.read_noise_e,
+            cg_V=sensor.conversion_gain_uV_per_e * 1e-6, pedestal_V=sensor.pedestal_V,
+            n_samples=sensor.cms_samples, true_cds=sensor.true_cds)
+        return PixelFrames(mean_e, mean, var, full_well_pixel_frames=full)
     cds_var_e2 = cds_var_e2 + 2.0 * sensor.read_noise_e * sensor.read_noise_e / sensor.cms_samples
     if not sensor.true_cds:
         cds_var_e2 = cds_var_e2 + 2.0 * sensor.ktc_e * sensor.ktc_e

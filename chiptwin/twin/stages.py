@@ -332,6 +332,9 @@ def converter(s: Scenario, rng: np.random.Generator) -> pixel.Converter:
     fixed per chip and drawn from ``rng`` (nothing is drawn for an ideal converter). A relative
     ``inl_table`` is read from the scenario's folder."""
     adc = s.chip.adc
+    if s.run.fidelity.adc == "ideal":  # the ADC's cheaper level: every as-built effect off
+        return pixel.Converter.ideal_adc(adc.bits, adc.v_min_V, adc.v_max_V,
+                                         adc.offset_error_lsb, adc.gain_error)
     folder = Path(s.source).parent if Path(s.source).is_file() else None
     spec = replace(pixel.AsBuilt.from_keys(adc, folder),
                    comparator_noise_lsb=adc.comparator_noise_total_lsb)

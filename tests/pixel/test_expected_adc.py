@@ -1,0 +1,105 @@
+"""The expected level through the converter as built (issue 17 item 1): the CMS output's mean and
+variance from the transition tables, checked against a slow reference and a Monte Carlo of the
+binned path."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from chiptwin import pixel
+from chiptwin.config import load_scenario
+from chiptwin.pixel import expected_adc
+from chiptwin.twin import runner, scene
+from tests.conftest import SMALL
+
+LSB = 1.0 / 8192
+AS_BUILT = pixel.AsBuilt(comparator_noise_lsb=0.5, inl_max_lsb=2.0, dnl_rms_lsb=0.2,
+                         offset_sigma_lsb=0.3, gain_sigma=0.01, ramp="column")
+ON = ["chip.adc.comparator_noise_lsb=0.5", "chip.adc.inl_max_lsb=2.0", "chip.adc.dnl_rms_lsb=0.2",
+      "chip.adc.offset_sigma_lsb=0.3", "chip.adc.gain_sigma=0.01"]
+
+
+@pytest.mark.parametrize("noise_lsb", [0.0, 0.25, 0.5])
+@pytest.mark.parametrize("shared_lsb", [0.1, 0.5, 1.0, 2.0, 5.0, 20.0])
+def test_quadrature_is_within_its_stated_bound(noise_lsb, shared_lsb):
+    """E_y[v(y)] by Gauss–Hermite (GH_NODES by the spread's ratio to the white noise) against a
+    16001-point trapezoid over ±8σ: within GH_REL_TOL·σ_y² + GH_ABS_TOL_LSB2."""
+    spec = dataclasses.replace(AS_BUILT, comparator_noise_lsb=noise_lsb)
+    conv = pixel.build_converter(np.random.default_rng(1), (1, 4), bits=13, v_min_V=0.0,
+                                 v_max_V=1.0, as_built=spec)
+    mu = np.array([[0.3, 0.31, 0.5123, 0.7]])
+    sd = np.full((1, 4), shared_lsb * LSB)
+    white = (0.13 * LSB) ** 2
+    t = np.linspace(-8.0, 8.0, 16001)
+    wt = np.exp(-t * t / 2)
+    wt /= wt.sum()
+    _, v = conv.expected(mu + sd * t[:, None, None], white)
+    reference = np.tensordot(wt, v, axes=1)
+    got = expected_adc.mean_of_var(conv, mu, sd, white)
+    bound = expected_adc.GH_REL_TOL * shared_lsb**2 + expected_adc.GH_ABS_TOL_LSB2
+    assert np.max(np.abs(got - reference)) <= bound
+
+
+def _scene(tmp_path, extra=()):
+    path = tmp_path / "small.toml"
+    path.write_text(SMALL)
+    s = load_scenario(path, ["run.fidelity.photons=expected", *extra])
+    return s, runner.prepare(s)
+
+
+@pytest.mark.parametrize("true_cds", [True, False])
+def test_expected_moments_match_a_monte_carlo_of_the_binned_path(tmp_path, true_cds):
+    """A small scene with INL, DNL, comparator noise and mismatch on: per pixel, the expected
+    level's CMS mean and variance against 20000 binned draws of the brightest frame (the binned
+    kernel, the scene's converter) agree within 4.5 standard errors (the largest z of 2 × 24
+    pixels, two tests)."""
+    extra = [*ON, f"chip.pixel.true_cds={str(true_cds).lower()}"]
+    s, sc = _scene(tmp_path, extra)
+    t_int = s.chip.timing.t_int_s
+    frames = sc.pixel_frames(t_int, s.chip.adc.gain_error)
+    f = int(np.argmax(frames.mean_e.sum(axis=1)))
+    sensor = sc.sensor
+    assert not sensor.converter.ideal
+    n = 20000
+    mean_e = np.repeat(frames.mean_e[f : f + 1], n, axis=0)
+    codes = pixel.binned_codes(
+        np.random.default_rng(3), mean_e, full_well_e=sensor.full_well_e, ktc_e=sensor.ktc_e,
+        read_noise_e=sensor.read_noise_e, n_samples=sensor.cms_samples,
+        true_cds=sensor.true_cds, conversion_gain_uV_per_e=sensor.conversion_gain_uV_per_e,
+        pedestal_V=sensor.pedestal_V, converter=sensor.converter)
+    m = sensor.cms_samples
+    cms = codes[:, m:].mean(axis=1) - codes[:, :m].mean(axis=1)
+    mc_mean, mc_var = cms.mean(axis=0), cms.var(axis=0, ddof=1)
+    z_mean = (frames.cds_mean_lsb[f] - mc_mean) / np.sqrt(mc_var / n)
+    z_var = (frames.cds_var_lsb2[f] - mc_var) / (mc_var * np.sqrt(2.0 / (n - 1)))
+    assert np.max(np.abs(z_mean)) < 4.5 and np.max(np.abs(z_var)) < 4.5
+    assert frames.cds_mean_lsb[f].max() > 10  # a lit pixel among them
+
+
+def test_ideal_converter_keeps_the_linear_model_bit_for_bit(tmp_path):
+    """With no as-built effect the expected level is today's arithmetic, array for array."""
+    s, sc = _scene(tmp_path)
+    assert sc.sensor.converter.ideal
+    got = scene.pixel_frames(sc, s.chip.timing.t_int_s, s.chip.adc.gain_error)
+    sensor = sc.sensor
+    cds_e, var_e = pixel.clipped_poisson_moments(got.mean_e, sensor.full_well_e)
+    var_e = var_e + 2 * sensor.read_noise_e**2 / sensor.cms_samples
+    to_lsb = 1.0 / sensor.e_per_lsb
+    quant = 2 * pixel.quantization_var_of_mean(sensor.cms_samples,
+                                               sensor.read_noise_e / sensor.e_per_lsb)
+    assert np.array_equal(got.cds_mean_lsb, cds_e * to_lsb)
+    assert np.array_equal(got.cds_var_lsb2, var_e * to_lsb**2 + quant)
+
+
+def test_expected_level_with_the_converter_as_built_is_accepted_and_runs(tmp_path):
+    """The consistency rule no longer refuses it; the run reports the ADC level."""
+    path = tmp_path / "small.toml"
+    path.write_text(SMALL)
+    result = runner.run(path, ["run.fidelity.photons=expected", *ON])
+    assert result.summary["fidelity"]["adc"] == "as_built"
+    ideal = runner.run(path, ["run.fidelity.photons=expected", *ON, 'run.fidelity.adc="ideal"'])
+    assert ideal.summary["fidelity"]["adc"] == "ideal"
+    assert result.summary["sites"][0]["signal_e"] != ideal.summary["sites"][0]["signal_e"]
