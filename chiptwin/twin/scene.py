@@ -8,7 +8,6 @@ They live below both :mod:`chiptwin.twin.runner` (which makes them) and
 
 from __future__ import annotations
 
-import math
 import time
 from collections import defaultdict
 from collections.abc import Callable
@@ -213,10 +212,6 @@ def pixel_frames(scene: Scene, t_int_s: float, gain_error: float, start: int = 0
         cds_var_e2 = cds_var_e2 + 2.0 * sensor.ktc_e * sensor.ktc_e
     to_lsb = (1.0 + gain_error) / sensor.e_per_lsb
     read_lsb = sensor.read_noise_e / sensor.e_per_lsb * (1.0 + gain_error)
-    comp_lsb = sensor.converter.comparator_noise_lsb if sensor.converter is not None else 0.0
-    if comp_lsb > 0.0:  # white per conversion like read noise: it adds, and it dithers
-        cds_var_e2 = cds_var_e2 + 2.0 * (comp_lsb / to_lsb) ** 2 / sensor.cms_samples
-        read_lsb = math.hypot(read_lsb, comp_lsb)
     quant_var = 2.0 * pixel.quantization_var_of_mean(sensor.cms_samples, read_lsb)
     full = int(np.count_nonzero(mean_e >= sensor.full_well_e))
     return PixelFrames(mean_e, cds_e * to_lsb, cds_var_e2 * to_lsb**2 + quant_var,
