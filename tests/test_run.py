@@ -29,7 +29,7 @@ def test_small_pyrosequencing_run_calls_the_template(small_toml):
     assert all(site["detected"] for site in s["sites"])
     assert [f["called_n"] for f in s["flows"]] == [f["true_n"] for f in s["flows"]]
     assert s["fidelity"] == {"kinetics": "closed_form", "photons": "binned", "optics": "psf",
-                             "shot": "poisson", "dsp": "float"}
+                             "shot": "poisson", "dsp": "float", "adc": "ideal"}
 
 
 def test_same_seed_same_summary_other_seed_differs(small_toml):
