@@ -217,10 +217,11 @@ def coupling_stack(
 
     Parameters
     ----------
-    n_rows, n_cols, pitch_um, diode_w_um, diode_h_um, site_x_um, site_y_um, site_radius_um,
-    site_side_um, rtol
-        As in :func:`chiptwin.optics.psf.coupling_psf` (µm; ``rtol`` relative to the plane
-        fraction of the emitter's law: 0.5 isotropic, 1 Lambertian).
+    n_rows, n_cols, pitch_um, diode_w_um, diode_h_um
+        The array, as in :func:`chiptwin.optics.psf.coupling_psf` (µm).
+    site_x_um, site_y_um, site_radius_um, site_side_um, rtol
+        The sites and the tolerance, as there (µm; ``rtol`` relative to the plane fraction of
+        the emitter's law: 0.5 isotropic, 1 Lambertian).
     stack : Stack
         Layers from the site (in the first) down to the diode plane, or to the faceplate's top.
     emitter : str

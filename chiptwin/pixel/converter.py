@@ -222,6 +222,8 @@ _NO_DRAWS = np.random.Generator(np.random.SFC64(0))
 class Converter:
     """The chip's converters as the kernels apply them: nominal ADC + levels + mismatch + noise.
 
+    The search LUT of the levels (:func:`chiptwin.pixel._kernels.table_code`) is made here.
+
     Parameters
     ----------
     bits, v_min_V, v_max_V, offset_lsb, gain_error
@@ -237,8 +239,6 @@ class Converter:
         Each converter's gain factor (> 0, default 1) and offset (LSB, default 0).
     shape : tuple of int, optional
         Pixel array the per-converter arrays follow (C order); required unless ideal.
-
-    The search LUT of the levels (:func:`chiptwin.pixel._kernels.table_code`) is made here.
     """
 
     bits: int
