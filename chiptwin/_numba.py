@@ -55,3 +55,9 @@ NJIT_OPTIONS: dict[str, bool] = {"cache": True, "nogil": True, "fastmath": False
 
 #: ``@NJIT`` is ``@njit(**NJIT_OPTIONS)``.
 NJIT = njit(**NJIT_OPTIONS)
+
+#: ``@NJIT_INLINE``: the same, inlined into its callers in numba's IR. For the few-instruction
+#: helpers of the inner loops (a bit generator's step, the ziggurat's common path): called as
+#: functions they cost 2–3× their own work (numba's calling convention and the optimisations the
+#: call boundary prevents; measured in chiptwin.pixel._random).
+NJIT_INLINE = njit(inline="always", **NJIT_OPTIONS)

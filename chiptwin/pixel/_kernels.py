@@ -1,23 +1,15 @@
 """numba kernels of the pixel stage: arrays and scalars in, arrays out, no checks.
 
-The validating wrapper is :func:`chiptwin.pixel.chain.sensor_chain`.
+The validating wrappers are :func:`chiptwin.pixel.chain.sensor_chain` and
+:func:`chiptwin.pixel.frames.binned_codes`. Random draws come from :mod:`chiptwin.pixel._random`:
+the caller's bit-generator state advanced inline (a *source*), NumPy's samplers on it.
 
-Shot noise draws its uniforms from an SFC64 state held in a ``uint64[4]`` array and advanced
-here, inline: NumPy's ``SFC64`` algorithm and its ``next_double``, so the stream is the one
-``numpy.random.Generator(numpy.random.SFC64(seed))`` gives. Through numba's ``Generator``
-interface each uniform is a call through a function pointer (≈ 6 ns against NumPy's 2 ns), which
-made the Poisson draw 1.5× slower than NumPy's; inline it matches NumPy's speed. The Poisson
-sampler is NumPy's own algorithm (``random_poisson`` in
-``numpy/random/src/distributions/distributions.c``: multiplication of uniforms below a mean of 10,
-Hörmann's PTRS transformed rejection above), so it draws exactly what ``Generator.poisson`` draws
-from the same stream (tested bit for bit). numba 0.68's built-in ``Generator.poisson`` truncates
-with ``int()`` where NumPy floors, which accepts a few zero counts NumPy rejects at means ≥ 10.
-Gaussian draws (kTC, read noise, the ``gaussian`` shot level) come from a numba ``Generator``.
-
-The same sampler also draws from a NumPy ``Generator`` passed in (:func:`next_double` picks the
-uniform source by type), so :func:`frame_codes` replays, bit for bit, the per-frame draws of
-``sample_frame`` on the caller's stream: numba's ``Generator.random`` and ``standard_normal`` are
-NumPy's ``next_double`` and ziggurat (tested).
+:func:`frame_codes` (the ``binned`` level) draws, bit for bit, what ``sample_frame`` draws frame
+by frame on the caller's ``Generator`` (its PCG64 or SFC64 state passed as a source, or the
+``Generator`` itself for any other bit generator): NumPy's Poisson, NumPy's ziggurat (tested).
+:func:`chain_chunk` (``sensor_chain``, the large-array path) draws its counts with
+:func:`~chiptwin.pixel._random.poisson_fast` (Ahrens & Dieter above a mean of 10: the same law,
+not NumPy's draws) from its chunk's own streams.
 """
 
 from __future__ import annotations
@@ -25,24 +17,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import types
-from numba.extending import overload
 
 from chiptwin._numba import NJIT
-
-#: Stirling-series coefficients of log Γ (NumPy's ``random_loggam``).
-_LOGGAM_COEF = (
-    8.333333333333333e-02,
-    -2.777777777777778e-03,
-    7.936507936507937e-04,
-    -5.952380952380952e-04,
-    8.417508417508418e-04,
-    -1.917526917526918e-03,
-    6.410256410256410e-03,
-    -2.955065359477124e-02,
-    1.796443723688307e-01,
-    -1.39243221690590e00,
-)
+from chiptwin.pixel._random import poisson, poisson_fast, standard_normal
 
 #: ``shot_noise`` codes of :func:`chain_chunk`.
 SHOT_POISSON: int = 0
@@ -50,120 +27,14 @@ SHOT_GAUSSIAN: int = 1
 
 
 @NJIT
-def loggam(x: float) -> float:
-    """log Γ(x) for x > 0, NumPy's ``random_loggam`` (Stirling series after shifting x ≥ 7)."""
-    if x == 1.0 or x == 2.0:
-        return 0.0
-    n = 0
-    x0 = x
-    if x < 7.0:
-        n = int(7 - x)
-        x0 = x + n
-    x2 = 1.0 / (x0 * x0)
-    gl0 = _LOGGAM_COEF[9]
-    for k in range(8, -1, -1):
-        gl0 = gl0 * x2 + _LOGGAM_COEF[k]
-    gl = gl0 / x0 + 0.5 * math.log(2.0 * math.pi) + (x0 - 0.5) * math.log(x0) - x0
-    if x < 7.0:
-        for _ in range(n):
-            x0 = x0 - 1.0
-            gl = gl - math.log(x0)
-    return gl
-
-
-@NJIT
-def sfc64_double(state: np.ndarray) -> float:
-    """Next double in [0, 1) of the SFC64 generator whose state ``uint64[4]`` is advanced in place.
-
-    NumPy's ``sfc64_next64`` and ``next_double``: ``(x >> 11) · 2⁻⁵³``.
-    """
-    tmp = state[0] + state[1] + state[3]
-    state[3] += np.uint64(1)
-    state[0] = state[1] ^ (state[1] >> np.uint64(11))
-    state[1] = state[2] + (state[2] << np.uint64(3))
-    state[2] = ((state[2] << np.uint64(24)) | (state[2] >> np.uint64(40))) + tmp
-    return float(tmp >> np.uint64(11)) * (1.0 / 9007199254740992.0)
-
-
-def next_double(source) -> float:
-    """Next double in [0, 1) of ``source``: an SFC64 state ``uint64[4]`` (advanced in place by
-    :func:`sfc64_double`) or a ``numpy.random.Generator`` (its ``random()``, NumPy's
-    ``next_double``). Plain Python here; compiled code uses the overload below."""
-    if isinstance(source, np.random.Generator):
-        return source.random()
-    return sfc64_double(source)
-
-
-@overload(next_double, jit_options={"cache": True})
-def _next_double_jit(source):
-    if isinstance(source, types.Array):
-        return lambda source: sfc64_double(source)
-    return lambda source: source.random()
-
-
-@NJIT
-def _poisson_mult(state, lam: float) -> int:
-    enlam = math.exp(-lam)
-    count = 0
-    prod = 1.0
-    while True:
-        prod *= next_double(state)
-        if prod > enlam:
-            count += 1
-        else:
-            return count
-
-
-@NJIT
-def _poisson_ptrs(state, lam: float) -> int:
-    slam = math.sqrt(lam)
-    loglam = math.log(lam)
-    b = 0.931 + 2.53 * slam
-    a = -0.059 + 0.02483 * b
-    invalpha = 1.1239 + 1.1328 / (b - 3.4)
-    vr = 0.9277 - 3.6224 / (b - 2)
-    while True:
-        u = next_double(state) - 0.5
-        v = next_double(state)
-        us = 0.5 - abs(u)
-        k = math.floor((2 * a / us + b) * u + lam + 0.43)
-        if us >= 0.07 and v <= vr:
-            return k
-        if k < 0 or (us < 0.013 and v > us):
-            continue
-        lhs = math.log(v) + math.log(invalpha) - math.log(a / (us * us) + b)
-        if lhs <= -lam + k * loglam - loggam(k + 1):
-            return k
-
-
-@NJIT
-def poisson(state, lam: float) -> int:
-    """One Poisson count of mean ``lam`` ≥ 0 from ``state`` (an SFC64 ``uint64[4]`` or a
-    ``Generator``, see :func:`next_double`), bit-identical to ``Generator.poisson(lam)`` on the
-    same stream."""
-    if lam >= 10.0:
-        return _poisson_ptrs(state, lam)
-    if lam == 0.0:
-        return 0
-    return _poisson_mult(state, lam)
-
-
-@NJIT
-def poisson_fill(state: np.ndarray, lam: np.ndarray, out: np.ndarray) -> None:
-    """``out[i] = poisson(state, lam[i])`` in order (the sampler on its own, for tests)."""
-    for i in range(lam.size):
-        out[i] = poisson(state, lam[i])
-
-
-@NJIT
-def gaussian_count(
-    state: np.ndarray, gen: np.random.Generator, lam: float, min_mean: float
-) -> float:
-    """Approximate Poisson count: ``max(0, rint(lam + √lam·z))``, z from ``gen``, when
-    ``lam ≥ min_mean``; below it the exact :func:`poisson` from ``state``."""
+def gaussian_count(shot, normal, lam: float, min_mean: float, fast: bool) -> float:
+    """Approximate Poisson count: ``max(0, rint(lam + √lam·z))``, z from the source ``normal``,
+    when ``lam ≥ min_mean``; below it an exact count from the source ``shot``:
+    :func:`~chiptwin.pixel._random.poisson_fast` if ``fast``, else NumPy's
+    :func:`~chiptwin.pixel._random.poisson`."""
     if lam < min_mean:
-        return float(poisson(state, lam))
-    return max(0.0, np.rint(lam + math.sqrt(lam) * gen.standard_normal()))
+        return float(poisson_fast(shot, lam) if fast else poisson(shot, lam))
+    return max(0.0, np.rint(lam + math.sqrt(lam) * standard_normal(normal)))
 
 
 @NJIT
@@ -245,9 +116,9 @@ def sample_noise(read_noise_e, cg_V, gain, noise_lsb, lsb, pixel_gain):
 
 
 @NJIT
-def convert_rows(volts, out, v_min, lsb, gain, offset, top, conv, cgen):
+def convert_rows(volts, out, v_min, lsb, gain, offset, top, conv, source):
     """Convert ``volts`` ``(R, n)`` into ``out`` ``(R, n)`` by the converters as built, converter
-    ``i`` for column ``i``; comparator draws from ``cgen`` in C order (row-major).
+    ``i`` for column ``i``; comparator draws from the source ``source`` in C order (row-major).
 
     ``conv = (built, pixel_gain, pixel_offset, table_of_pixel, noise_lsb, levels, lut, base,
     read_e)`` (``levels, lut, base`` as in :func:`table_code`; ``read_e`` unused here; ``built``
@@ -267,7 +138,7 @@ def convert_rows(volts, out, v_min, lsb, gain, offset, top, conv, cgen):
     dither = np.empty(volts.shape if noise > 0.0 else (0, 0))
     for m in range(dither.shape[0]):
         for i in range(dither.shape[1]):
-            dither[m, i] = noise * cgen.standard_normal()
+            dither[m, i] = noise * standard_normal(source)
     args = (volts, out, v_min, lsb, gain, offset, c_gain, c_offset, dither)
     if levels.shape[0] > 0:
         _table_rows(*args, rows, levels, lut, base)
@@ -347,7 +218,7 @@ def table_moments(mu, sd, rows, lut, window, out_mean, out_var):
 
 @NJIT
 def chain_chunk(
-    shot_state, gen, photons, gain_map, dark_e, qe, full_well, ktc, read_noise, true_cds,
+    shot_state, normal_state, photons, gain_map, dark_e, qe, full_well, ktc, read_noise, true_cds,
     read_reset, shot_noise, gauss_min_mean, pedestal, cg_V, v_min, lsb, adc_gain, offset, top,
     conv, reset_out, signal_out,
 ):  # fmt: skip
@@ -355,7 +226,8 @@ def chain_chunk(
 
     Per pixel: the count, one merged Poisson draw of ``qe·gain·photons + dark`` from
     ``shot_state`` (SFC64, ``uint64[4]``, advanced and written back), or its Gaussian
-    approximation, clipped at ``full_well``; then, in this order from ``gen``: the Gaussian
+    approximation, clipped at ``full_well``; then, in this order from ``normal_state``
+    (SFC64, advanced in place too): the Gaussian
     level's normal (if used), the signal kTC draw (if ``ktc > 0``), the reset kTC draw (if
     ``ktc > 0``, ``read_reset`` and not ``true_cds``), the M reset samples' read noise (if
     ``read_reset``), the M signal samples' read noise. ``reset_out`` and ``signal_out`` are
@@ -367,7 +239,8 @@ def chain_chunk(
     ``(M, block)``, then its signal samples. Comparator noise comes folded into the read noise
     (``conv[8]``, see :func:`sample_noise`): nothing more is drawn.
     """
-    state = shot_state.copy()  # a private copy: threads never write neighbouring cache lines
+    state = shot_state.copy()  # private copies: threads never write neighbouring cache lines
+    normal = normal_state.copy()
     n_samples = signal_out.shape[0]
     built, read_e = conv[0], conv[8]
     folded = read_e.shape[0] > 0
@@ -377,18 +250,18 @@ def chain_chunk(
     for i in range(photons.size):
         lam = qe * gain_map[i] * photons[i] + dark_e[i]
         if shot_noise == SHOT_GAUSSIAN:
-            count = gaussian_count(state, gen, lam, gauss_min_mean)
+            count = gaussian_count(state, normal, lam, gauss_min_mean, True)
         else:
-            count = float(poisson(state, lam))
+            count = float(poisson_fast(state, lam))
         collected = min(count, full_well)
-        k_signal = ktc * gen.standard_normal() if ktc > 0.0 else 0.0
+        k_signal = ktc * standard_normal(normal) if ktc > 0.0 else 0.0
         rn = read_e[i] if folded else read_noise
         if read_reset:
             k_reset = k_signal
             if ktc > 0.0 and not true_cds:
-                k_reset = ktc * gen.standard_normal()
+                k_reset = ktc * standard_normal(normal)
             for m in range(n_samples):
-                e = k_reset + rn * gen.standard_normal()
+                e = k_reset + rn * standard_normal(normal)
                 if built:
                     v_reset[m, i % block] = pedestal + e * cg_V
                 else:
@@ -396,7 +269,7 @@ def chain_chunk(
                         pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top
                     )
         for m in range(n_samples):
-            e = (collected + k_signal) + rn * gen.standard_normal()
+            e = (collected + k_signal) + rn * standard_normal(normal)
             if built:
                 v_signal[m, i % block] = pedestal + e * cg_V
             else:
@@ -405,17 +278,19 @@ def chain_chunk(
             lo, hi = i - i % block, i + 1  # a block's samples: reset ones, then signal ones
             part = (True, conv[1][lo:hi], conv[2][lo:hi], conv[3][lo:hi], *conv[4:])
             consts = (v_min, lsb, adc_gain, offset, top)
-            convert_rows(v_reset[:, : hi - lo], reset_out[:, lo:hi], *consts, part, gen)
-            convert_rows(v_signal[:, : hi - lo], signal_out[:, lo:hi], *consts, part, gen)
+            convert_rows(v_reset[:, : hi - lo], reset_out[:, lo:hi], *consts, part, normal)
+            convert_rows(v_signal[:, : hi - lo], signal_out[:, lo:hi], *consts, part, normal)
     shot_state[:] = state
+    normal_state[:] = normal
 
 
 @NJIT
 def frame_codes(
-    gen, mean_e, counted_pixels, counted_e, full_well, ktc, read_noise, true_cds, pedestal, cg_V,
+    source, mean_e, counted_pixels, counted_e, full_well, ktc, read_noise, true_cds, pedestal, cg_V,
     v_min, lsb, adc_gain, offset, top, gauss_min_mean, conv, codes_out,
 ):  # fmt: skip
-    """Frames of the ``binned`` level, one after another, from the NumPy ``Generator`` ``gen``.
+    """Frames of the ``binned`` level, one after another, from ``source`` (the caller's
+    ``Generator``, or its PCG64/SFC64 state: :mod:`~chiptwin.pixel._random`).
 
     ``mean_e`` is ``(n_frames, n)``: the expected charge of each pixel in each frame. Per frame,
     in the order of ``sample_frame`` (so the draws are its draws): the Poisson count of every
@@ -439,18 +314,19 @@ def frame_codes(
     k_reset = np.zeros(n)
     for f in range(n_frames):
         for i in range(n):
-            collected[i] = min(gaussian_count(gen, gen, mean_e[f, i], gauss_min_mean), full_well)
+            count = gaussian_count(source, source, mean_e[f, i], gauss_min_mean, False)
+            collected[i] = min(count, full_well)
         for j in range(counted_pixels.size):
             collected[counted_pixels[j]] = counted_e[f, j]
         if ktc > 0.0:
             for i in range(n):
-                k_signal[i] = ktc * gen.standard_normal()
+                k_signal[i] = ktc * standard_normal(source)
             for i in range(n):
-                k_reset[i] = k_signal[i] if true_cds else ktc * gen.standard_normal()
+                k_reset[i] = k_signal[i] if true_cds else ktc * standard_normal(source)
         for j in range(m):
             for i in range(n):
                 rn = read_e[i] if folded else read_noise
-                e = k_reset[i] + rn * gen.standard_normal()
+                e = k_reset[i] + rn * standard_normal(source)
                 volts = pedestal + e * cg_V
                 if built:
                     row[0, i] = volts
@@ -458,12 +334,12 @@ def frame_codes(
                     codes_out[f, j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
             if built:
                 convert_rows(
-                    row, codes_out[f, j : j + 1], v_min, lsb, adc_gain, offset, top, conv, gen
+                    row, codes_out[f, j : j + 1], v_min, lsb, adc_gain, offset, top, conv, source
                 )
         for j in range(m):
             for i in range(n):
                 rn = read_e[i] if folded else read_noise
-                e = (collected[i] + k_signal[i]) + rn * gen.standard_normal()
+                e = (collected[i] + k_signal[i]) + rn * standard_normal(source)
                 volts = pedestal + e * cg_V
                 if built:
                     row[0, i] = volts
@@ -479,5 +355,5 @@ def frame_codes(
                     offset,
                     top,
                     conv,
-                    gen,
+                    source,
                 )

@@ -55,7 +55,7 @@ def chunk_streams(
 
     Chunk ``c`` gets the ``c``-th child of a SeedSequence seeded from ``rng``, and that child's
     two children seed its generators. SFC64 is NumPy's fast, statistically high-quality bit
-    generator; the kernel advances the shot stream's state inline (see ``_kernels``).
+    generator; the kernel advances both states inline (:mod:`chiptwin.pixel._random`).
     """
     return _streams(_chunk_seeds(rng, n_pixels, chunk_pixels))
 
@@ -83,9 +83,10 @@ def _streams(
     return [_child(s, 0) for s in seeds], [_child(s, 1) for s in seeds]
 
 
-def _shot_states(shot: list[np.random.Generator]) -> NDArray[np.uint64]:
-    """The SFC64 states ``(n_chunks, 4)`` the kernel advances in place."""
-    return np.array([g.bit_generator.state["state"]["state"] for g in shot], dtype=np.uint64)
+def _states(gens: list[np.random.Generator]) -> NDArray[np.uint64]:
+    """The SFC64 states ``(n_chunks, 4)`` the kernel advances in place
+    (:mod:`chiptwin.pixel._random`)."""
+    return np.array([g.bit_generator.state["state"]["state"] for g in gens], dtype=np.uint64)
 
 
 def _frames(photons: ArrayLike | Iterable[ArrayLike], n_frames: int | None) -> Iterator:
@@ -170,7 +171,7 @@ def _readout_consts(
 
 def _run_frame(
     pool: ThreadPoolExecutor | None,
-    streams: tuple[NDArray[np.uint64], list[np.random.Generator]],
+    streams: tuple[NDArray[np.uint64], NDArray[np.uint64]],
     plan: _Plan,
     arrays: tuple[NDArray[np.float64], ...],
     outs: tuple[Codes, Codes],
@@ -198,7 +199,7 @@ def _run(
     frames: Iterator,
     first: NDArray[np.float64],
     maps: tuple[NDArray[np.float64], NDArray[np.float64]],
-    streams: tuple[NDArray[np.uint64], list[np.random.Generator]],
+    streams: tuple[NDArray[np.uint64], NDArray[np.uint64]],
     plan: _Plan,
     out: tuple[Codes, Codes] | None,
 ) -> Iterator[tuple[Codes, Codes]]:
@@ -282,7 +283,9 @@ def sensor_chain(
         :func:`chiptwin.pixel._kernels.sample_noise`): no stream moves, nothing more is drawn.
         An ideal converter gives the keywords' codes bit for bit.
     shot_noise : {"poisson", "gaussian"}
-        ``"poisson"``: exact, NumPy's sampler. ``"gaussian"``: a named approximation, the count
+        ``"poisson"``: exact counts (:func:`~chiptwin.pixel._random.poisson_fast`: Ahrens &
+        Dieter's sampler above a mean of 10, the same law as NumPy's, ≈ 2× faster, other draws;
+        NumPy's below). ``"gaussian"``: a named approximation, the count
         ``max(0, rint(λ + √λ·z))`` for means ``λ ≥ gaussian_min_mean_e`` (exact Poisson below).
         Its error (``benchmarks/bench_sensor_chain.py``): total-variation distance to the Poisson
         law 0.0040 at λ = 1000 and 0.0013 at 10⁴ (it drops the skewness 1/√λ); it adds 1/12 e⁻² of
@@ -342,4 +345,4 @@ def sensor_chain(
         n_frames is not None,
     )
     _buffers(first.shape, plan.n_reset, m, out)  # check out now, not at the first frame
-    return _run(frames, first, maps, (_shot_states(shot), noise), plan, out)
+    return _run(frames, first, maps, (_states(shot), _states(noise)), plan, out)

@@ -11,9 +11,8 @@ import tracemalloc
 import numpy as np
 import pytest
 from numba import njit
-from scipy.special import gammaln
 
-from chiptwin.pixel import _kernels, adc_convert, sample_frame, sensor_chain, to_volts
+from chiptwin.pixel import _kernels, _random, adc_convert, sample_frame, sensor_chain, to_volts
 from chiptwin.pixel.chain import chunk_streams
 
 CHIP = dict(
@@ -28,50 +27,7 @@ CHIP = dict(
 )
 
 
-# --- the sampler and the ADC kernel, bit for bit --------------------------------------------------
-
-
-@pytest.mark.parametrize(
-    "lam",
-    [
-        np.array([0.0, 1e-3, 0.5, 5.0, 9.999999, 10.0, 10.5, 100.0, 1e4, 1e7]).repeat(2000),
-        np.random.default_rng(3).uniform(0.0, 30.0, 1_000_000),
-        np.random.default_rng(4).uniform(0.0, 5e4, 200_000),
-    ],
-    ids=["table", "0-30", "0-5e4"],
-)
-def test_poisson_sampler_is_numpys(lam):
-    """The kernel's Poisson draws, from an SFC64 state advanced inline, equal
-    Generator(SFC64).poisson's from the same seed, bit for bit. (numba 0.68's own
-    Generator.poisson does not: it accepts zero counts NumPy rejects at means ≥ 10; on a PCG64
-    stream seeded 5 the "0-30" case leaves NumPy's sequence at draw 116 744.)"""
-    out = np.empty(lam.size, np.int64)
-    state = np.random.SFC64(5).state["state"]["state"].copy()
-    _kernels.poisson_fill(state, lam, out)
-    assert np.array_equal(out, np.random.Generator(np.random.SFC64(5)).poisson(lam))
-
-
-@njit
-def _doubles(state, n):
-    out = np.empty(n)
-    for i in range(n):
-        out[i] = _kernels.sfc64_double(state)
-    return out
-
-
-def test_inline_sfc64_is_numpys_stream():
-    """The inline SFC64 gives NumPy's SFC64 doubles, bit for bit, and leaves the same state."""
-    bg = np.random.SFC64(np.random.SeedSequence(17))
-    state = bg.state["state"]["state"].copy()
-    gen = np.random.Generator(bg)
-    assert np.array_equal(_doubles(state, 100_000), gen.random(100_000))
-    assert np.array_equal(state, bg.state["state"]["state"])
-
-
-def test_loggam_matches_scipy():
-    x = np.concatenate([np.arange(1.0, 50.0), np.geomspace(50.0, 1e9, 200), [0.5, 3.7]])
-    got = np.array([_kernels.loggam(v) for v in x])
-    assert np.allclose(got, gammaln(x), rtol=1e-12, atol=1e-12)
+# --- the ADC kernel, bit for bit (the samplers: test_random.py) -------------------------------
 
 
 @njit
@@ -114,10 +70,13 @@ def slow_chain(
     offset_lsb=0.0,
     gain_error=0.0,
 ):
-    """Per pixel in Python, drawing from each chunk's two NumPy generators in the order the kernel
-    documents, then the public to_volts and adc_convert."""
+    """Per pixel in Python, drawing from each chunk's two streams in the order the kernel
+    documents (the counts by the same sampler, _random.poisson_fast, on the shot stream's state:
+    its law is tested in test_random.py; the normals by NumPy's Generator), then the public
+    to_volts and adc_convert."""
     flat = photons.ravel()
     shot, noise = chunk_streams(np.random.default_rng(seed), flat.size, chunk)
+    shot = [_random.state_of(g) for g in shot]
     m_reset = n_samples if read_reset else 0
     frames = []
     for _ in range(n_frames):
@@ -129,7 +88,7 @@ def slow_chain(
             if shot_noise == "gaussian" and lam >= gauss_min:
                 count = max(0.0, np.rint(lam + math.sqrt(lam) * gen.standard_normal()))
             else:
-                count = float(shot[i // chunk].poisson(lam))
+                count = float(_random.poisson_fast(shot[i // chunk], lam))
             collected = min(count, CHIP["full_well_e"])
             k_sig = ktc_e * gen.standard_normal() if ktc_e > 0 else 0.0
             if read_reset:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from chiptwin.pixel import _kernels, adc_convert, binned_codes, read_out, sample_frame, to_volts
+from chiptwin.pixel import adc_convert, binned_codes, read_out, sample_frame, to_volts
 
 READOUT = dict(conversion_gain_uV_per_e=0.16, pedestal_V=0.1, bits=13, v_min_V=0.0, v_max_V=1.0)
 
@@ -76,18 +76,6 @@ def test_batches_draw_what_one_call_draws():
     rng = np.random.default_rng(4)
     parts = [binned_codes(rng, part, **kw) for part in np.split(_mean_e(), [1, 7, 30])]
     assert np.array_equal(np.concatenate(parts), whole)
-
-
-def test_poisson_sampler_on_a_generator_is_numpys():
-    """The kernel's Poisson sampler drawing from a PCG64 Generator gives Generator.poisson's
-    counts bit for bit and leaves the same state (numba's own Generator.poisson does not)."""
-    lam = np.concatenate([np.array([0.0, 1e-3, 0.5, 5.0, 9.999999, 10.0, 10.5, 1e4, 1e7]),
-                          np.random.default_rng(5).uniform(0.0, 3e4, 100_000)])
-    a, b = np.random.default_rng(6), np.random.default_rng(6)
-    out = np.empty(lam.size, np.int64)
-    _kernels.poisson_fill(a, lam, out)
-    assert np.array_equal(out, b.poisson(lam))
-    assert a.bit_generator.state == b.bit_generator.state
 
 
 @pytest.mark.parametrize(("kw", "name"), [
