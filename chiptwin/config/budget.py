@@ -39,6 +39,7 @@ from chiptwin.limits import (
     coupling_is_dense,
     frames_per_block,
 )
+from chiptwin.pixel.frames import code_dtype
 
 #: Peak of the stack psf (``chiptwin.optics.coupling_stack``'s tabulated radial profile, its disc
 #: convolution and quadrature temporaries), per emitter law of ``summary['optics']``: measured
@@ -67,7 +68,8 @@ SITE_FRAME_BYTES: int = 48
 #: block-moment temporaries (measured ≤ 450 B per pixel beyond the held frames).
 PIXEL_BYTES: int = 1024
 #: Per pixel of one frame held (waiting in the frame memory or in the block being made), plus
-#: ``16 · M`` for its 2M int64 ADC codes: its expected CMS mean and variance (float64). A DSP job
+#: its 2M ADC codes (2 B each up to 16 bits, else 4: :func:`chiptwin.pixel.frames.code_dtype`):
+#: its expected CMS mean and variance (float64). A DSP job
 #: stacks its frames' codes besides, ``(3M + 1) · 8`` B per pixel-frame (twice at fixed point).
 HELD_PIXEL_FRAME_BYTES: int = 32
 #: Per entry of a dense coupling matrix made by the psf level (offsets, their deduplication and
@@ -323,7 +325,7 @@ def memory_estimate(s: Scenario) -> list[MemoryTerm]:
                    pixels * PIXEL_BYTES, size),
     ]
     held = frames_held(s, frames)
-    per = 8 * c.samples_per_frame + HELD_PIXEL_FRAME_BYTES
+    per = np.dtype(code_dtype(c.adc.bits)).itemsize * c.samples_per_frame + HELD_PIXEL_FRAME_BYTES
     terms.append(MemoryTerm(f"{held} frames held × {pixels} pixels × {per} B (ADC codes and "
                             "moments)", held * pixels * per,
                             f"{size}, chip.dsp.cms_samples, chip.memory.capacity_bits"))

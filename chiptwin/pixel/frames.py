@@ -72,6 +72,14 @@ def default_threads() -> int:
 SHOT_MIN_MEAN_E = {"poisson": math.inf, "gaussian": 0.0}
 
 
+def code_dtype(bits: int) -> type[np.unsignedinteger]:
+    """The narrowest unsigned integer that holds a ``bits``-bit code: ``uint16`` up to 16 bits
+    (a quarter of int64's memory for every frame a run holds), else ``uint32``. The DSP reads
+    codes as int64 or float64 (:func:`chiptwin.dsp.fixed.as_codes`, the float reference), so
+    arithmetic never happens in the narrow type."""
+    return np.uint16 if bits <= 16 else np.uint32
+
+
 def binned_codes(
     rng: np.random.Generator | Sequence[np.random.Generator],
     mean_e: ArrayLike,
@@ -93,7 +101,7 @@ def binned_codes(
     counted_e: ArrayLike | None = None,
     threads: int | None = None,
     shot_noise: str = "poisson",
-) -> NDArray[np.int64]:
+) -> NDArray[np.unsignedinteger]:
     """ADC codes of the reset and signal samples of ``n_frames`` frames, drawn in frame order.
 
     Parameters
@@ -133,7 +141,7 @@ def binned_codes(
 
     Returns
     -------
-    ndarray of int64 (n_frames, 2M, n_pixels)
+    ndarray of uint16 (up to 16 bits) or uint32 (n_frames, 2M, n_pixels)
         Per frame the M reset codes, then the M signal codes: frame ``k`` is
         ``adc_convert(to_volts(np.concatenate(sample_frame(rng, ...)), ...), ...)`` of the
         frame-by-frame path. Unit: codes.
@@ -146,7 +154,7 @@ def binned_codes(
     conv.check_pixels(lam.shape[1])
     readout = _readout_consts(pedestal_V, conversion_gain_uV_per_e, conv)
     pixels, counted = _counted(counted_pixels, counted_e, lam.shape)
-    codes = np.empty((lam.shape[0], 2 * m, lam.shape[1]), np.int64)
+    codes = np.empty((lam.shape[0], 2 * m, lam.shape[1]), code_dtype(conv.bits))
     if shot_noise not in SHOT_MIN_MEAN_E:
         raise ValueError(f"shot_noise = {shot_noise!r}: must be one of {sorted(SHOT_MIN_MEAN_E)}")
     consts = (fw, ktc, read, bool(true_cds), *readout, SHOT_MIN_MEAN_E[shot_noise])

@@ -57,16 +57,26 @@ CLIPPING = dict(conversion_gain_uV_per_e=60.0, pedestal_V=0.0, bits=8, v_min_V=0
 @pytest.mark.parametrize("case", CASES, ids=["pyro", "no-cds", "no-ktc", "errors", "counted"])
 @pytest.mark.parametrize("readout", [READOUT, CLIPPING], ids=["13-bit", "8-bit-clipping"])
 def test_codes_are_those_of_the_frame_by_frame_path(case, readout):
-    """Identical codes and the same Generator state after."""
+    """Identical codes (in uint16, the narrowest type that holds them) and the same Generator
+    state after."""
     kw = {**case, **readout}
     a, b = np.random.default_rng(9), np.random.default_rng(9)
     ref = slow_codes(a, _mean_e(), **kw)
     got = binned_codes(b, _mean_e(), **kw)
-    assert got.dtype == np.int64 and got.shape == ref.shape
+    assert got.dtype == np.uint16 and got.shape == ref.shape
     assert np.array_equal(got, ref)
     assert a.bit_generator.state == b.bit_generator.state
     if readout is CLIPPING:
         assert (got == 255).any() and (got == 0).any()
+
+
+def test_codes_past_16_bits_are_uint32():
+    """A 20-bit converter's codes above 2¹⁶ are kept exactly, in uint32."""
+    kw = {**CASES[0], **READOUT, "bits": 20, "pedestal_V": 0.5}
+    a, b = np.random.default_rng(9), np.random.default_rng(9)
+    got = binned_codes(b, _mean_e(), **kw)
+    assert got.dtype == np.uint32 and got.max() > 2**16
+    assert np.array_equal(got, slow_codes(a, _mean_e(), **kw))
 
 
 def test_batches_draw_what_one_call_draws():
