@@ -8,7 +8,8 @@ timed in interleaved rounds (this machine is shared and noisy; medians are repor
     (and the same on NumPy's SFC64 bit generator, which the fast path's streams use), and two
     cores' worth of it: two threads, each drawing half (NumPy releases the GIL while it draws);
 (b) plain numpy, frame by frame: the same physics with whole-array numpy calls;
-(c) ``chiptwin.pixel.sensor_chain``, exact Poisson, all cores (and on one thread, for scaling);
+(c) ``chiptwin.pixel.sensor_chain``, exact Poisson (Ahrens & Dieter above a mean of 10), all
+    cores (and on one thread, for scaling);
 (d) ``sensor_chain(shot_noise="gaussian")``: a named approximation, with its error measured.
 
 (e) Pyxel 3.0.2 (``pyxel-sim``), exposure mode, warm, the same physics on the same scene (shot
@@ -18,6 +19,11 @@ timed in interleaved rounds (this machine is shared and noisy; medians are repor
     its dependencies need not agree with ours), else this interpreter if it imports ``pyxel``.
     The worker stays up and runs once per round, between the other contenders' turns, so every
     ratio comes from runs side by side. Without Pyxel the table says so and prints no ratio.
+
+Where the time goes: one frame of the scene on one thread, the chain's work built up a piece at a
+time in small numba loops (:func:`components`): reading the means, NumPy's PTRS Poisson sampler
+(our inline copy), Ahrens & Dieter's, + the read-noise normal, + conversion to volts and the ADC's
+rounding and clipping; beside NumPy's own ``Generator.poisson`` on the same means.
 
 Peak memory is measured separately with tracemalloc (NumPy's allocations are traced), Pyxel's
 the same way inside its worker. No timing of another tool is written in this file.
@@ -48,7 +54,14 @@ import numpy as np
 from scipy.special import ndtr
 from scipy.stats import poisson
 
-from chiptwin.pixel import adc_convert, fixed_pattern_maps, sensor_chain, to_volts
+from chiptwin.pixel import (
+    _kernels,
+    _random,
+    adc_convert,
+    fixed_pattern_maps,
+    sensor_chain,
+    to_volts,
+)
 from chiptwin.pixel.chain import available_cores
 
 CHIP = dict(
@@ -125,6 +138,60 @@ def fast(n_threads: int | None, shot_noise: str = "poisson") -> Callable:
             pass
 
     return run
+
+
+@numba.njit(cache=False)
+def _piece(state, lam, upto, out, full_well, read, pedestal, cg, v_min, lsb, top):
+    """The chain's per-pixel work up to piece ``upto`` (see :func:`components`), one value each."""
+    for i in range(lam.size):
+        if upto == 0:
+            out[i] = lam[i]
+            continue
+        if upto == 1:
+            out[i] = _random.poisson(state, lam[i])
+            continue
+        count = min(float(_random.poisson_fast(state, lam[i])), full_well)
+        if upto == 2:
+            out[i] = count
+            continue
+        e = count + read * _random.standard_normal(state)
+        if upto == 3:
+            out[i] = e
+            continue
+        out[i] = _kernels.adc_code(pedestal + e * cg, v_min, lsb, 1.0, 0.0, top)
+
+
+PIECES = ("read the means (memory traffic)", "Poisson, NumPy's PTRS (inline copy)",
+          "Poisson, Ahrens & Dieter (the chain's)", "+ read-noise normal (ziggurat)",
+          "+ volts, ADC rounding and clipping")
+
+
+def components(scene: dict, rounds: int) -> dict[str, float]:
+    """ns per pixel of one frame, one thread, best of ``rounds``: each piece of the chain's work
+    cumulated (:data:`PIECES`), NumPy's ``Generator.poisson`` and the whole chain on one thread."""
+    lam = np.ascontiguousarray(scene["lam"].ravel())
+    out = np.empty(lam.size)
+    state = _random.state_of(np.random.Generator(np.random.SFC64(3)))
+    gen = np.random.Generator(np.random.SFC64(4))
+    c = CHIP
+    consts = (c["full_well_e"], c["read_noise_e"], c["pedestal_V"],
+              c["conversion_gain_uV_per_e"] * 1e-6, c["v_min_V"],
+              (c["v_max_V"] - c["v_min_V"]) / 2.0 ** c["bits"], 2.0 ** c["bits"] - 1)
+    runs = {name: (lambda k=k: _piece(state, lam, k, out, *consts))
+            for k, name in enumerate(PIECES)}
+    runs["NumPy Generator.poisson (the floor)"] = lambda: gen.poisson(lam)
+    runs["sensor_chain, one thread (all of it)"] = lambda: fast(1)(gen, scene, 1)
+    best = {}
+    for name, run in runs.items():
+        run()
+        best[name] = min(_timed(run) for _ in range(rounds)) / lam.size * 1e9
+    return best
+
+
+def _timed(run: Callable) -> float:
+    t0 = time.perf_counter()
+    run()
+    return time.perf_counter() - t0
 
 
 def time_rounds(
@@ -391,6 +458,11 @@ def main(argv: list[str] | None = None) -> int:
         pyxel_result = None if pyxel is None else pyxel.close()
     memory = {name: peak_memory_mb(run, scene, args.frames) for name, run in methods.items()}
     result = report(times, memory, args.side**2 * args.frames, cold_s, pyxel_result)
+    pieces = components(scene, args.rounds)
+    print("where the time goes (one frame, one thread, ns per pixel, best of the rounds):")
+    for name, ns in pieces.items():
+        print(f"  {name:40s} {ns:6.1f}")
+    result["components_ns_per_pixel"] = pieces
     errors = [gaussian_error(lam) for lam in (1000.0, 1e4)]
     n_draws = 20_000 if args.quick else 2_000_000
     moments = {lv: sampled_moments(lv, 1000.0, n_draws) for lv in ("poisson", "gaussian")}

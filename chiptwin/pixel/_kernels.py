@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from chiptwin._numba import NJIT
+from chiptwin._numba import NJIT, NJIT_INLINE
 from chiptwin.pixel._random import poisson, poisson_fast, standard_normal
 
 #: ``shot_noise`` codes of :func:`chain_chunk`.
@@ -26,7 +26,7 @@ SHOT_POISSON: int = 0
 SHOT_GAUSSIAN: int = 1
 
 
-@NJIT
+@NJIT_INLINE
 def gaussian_count(shot, normal, lam: float, min_mean: float, fast: bool) -> float:
     """Approximate Poisson count: ``max(0, rint(lam + √lam·z))``, z from the source ``normal``,
     when ``lam ≥ min_mean``; below it an exact count from the source ``shot``:
