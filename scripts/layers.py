@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("foundations", ("constants", "_numba", "_checks", "limits")),
     ("stage kernels", ("kinetics", "optics", "pixel", "dsp", "detection")),
-    ("stages over stages", ("photons", "chip")),
+    ("stages over stages", ("photons", "chip", "rtl_ref")),
     ("files", ("config",)),
     ("twin", ("twin",)),
     ("tools", ("fidelity", "report", "characterize", "study")),
@@ -39,8 +39,12 @@ SIDEWAYS: frozenset[tuple[str, str]] = frozenset({
 
 
 def room_of(module: str) -> str | None:
-    """``chiptwin.twin.runner`` → ``twin``; ``chiptwin`` itself (the package's door) → None."""
+    """``chiptwin.twin.runner`` → ``twin``; ``chiptwin`` itself (the package's door) → None;
+    ``rtl_ref.…`` → ``rtl_ref`` (the reference RTL's harness imports the DSP it verifies: a
+    room of its own above the stage kernels)."""
     parts = module.split(".")
+    if parts[0] == "rtl_ref":
+        return "rtl_ref"
     return parts[1] if parts[0] == "chiptwin" and len(parts) > 1 else None
 
 
@@ -52,9 +56,10 @@ def layer_of(room: str) -> int:
 
 
 def modules(root: Path = ROOT) -> dict[str, Path]:
-    """Every module of the package by dotted name."""
+    """Every module of the package, and of ``rtl_ref``, by dotted name."""
     out = {}
-    for path in sorted((root / "chiptwin").rglob("*.py")):
+    paths = [*(root / "chiptwin").rglob("*.py"), *(root / "rtl_ref").glob("*.py")]
+    for path in sorted(paths):
         parts = list(path.relative_to(root).with_suffix("").parts)
         if parts[-1] == "__init__":
             parts.pop()
@@ -77,7 +82,7 @@ def imports(name: str, path: Path, known: set[str]) -> set[str]:
             for alias in node.names:
                 sub = f"{base}.{alias.name}"
                 found.add(sub if sub in known else base)
-    return {m for m in found if m.split(".")[0] == "chiptwin" and m != name}
+    return {m for m in found if m.split(".")[0] in ("chiptwin", "rtl_ref") and m != name}
 
 
 def graph(root: Path = ROOT) -> dict[str, set[str]]:

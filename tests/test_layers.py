@@ -35,6 +35,17 @@ def test_the_checker_sees_an_arrow_up_and_a_circle():
     assert layers.circles(g) == [["chiptwin.twin.runner", "chiptwin.twin.scene"]]
 
 
+def test_the_dsp_may_not_import_the_rtl_that_verifies_it():
+    """rtl_ref imports chiptwin.dsp, so it is a room above the stage kernels: the DSP importing
+    it back (chiptwin/dsp/rtl.py did, before it moved to chiptwin.twin.rtl) is an arrow up."""
+    g = layers.graph()
+    assert "chiptwin.dsp.fixed" in g["rtl_ref.block"]
+    assert "rtl_ref.pipeline" in g["chiptwin.twin.rtl"]
+    bad = {"chiptwin.dsp.program_pipeline": {"rtl_ref.routines"}}
+    assert layers.violations(bad) == ["chiptwin.dsp.program_pipeline -> rtl_ref.routines: "
+                                      "stage kernels may not import stages over stages"]
+
+
 def test_every_room_is_on_a_layer_and_few_modules_sit_flat():
     rooms = {layers.room_of(m) for m in layers.modules()} - {None}
     for room in rooms:
@@ -68,6 +79,7 @@ def test_public_api_takes_bundled_names():
     ("chiptwin.stages", "chiptwin.twin.stages", "coupling"),
     ("chiptwin.ladder", "chiptwin.fidelity.ladder", "run_ladder"),
     ("chiptwin.study.stats", "chiptwin.detection.stats", "mean_estimate"),
+    ("chiptwin.dsp.rtl", "chiptwin.twin.rtl", "RtlPipeline"),
 ])
 def test_moved_modules_still_import_with_a_warning(old, new, name):
     sys.modules.pop(old, None)

@@ -76,11 +76,14 @@ def _fidelity(s: Scenario) -> None:
         _fail(s, "run.fidelity.photons", "expected",
               f"carries no ADC codes for the {s.dsp_level} DSP to compute on; use binned")
     if s.dsp_level == "rtl":
-        from chiptwin.dsp import rtl
+        from chiptwin.config.rtl_path import make_importable
 
-        if "verilator" in rtl.missing():
+        make_importable()
+        from rtl_ref.tools import INSTALL_HINT, missing
+
+        if "verilator" in missing():
             key = "run.fidelity.dsp" if s.run.fidelity.dsp else "chip.dsp.mode"
-            _fail(s, key, "rtl", f"simulates the DSP's Verilog with Verilator: {rtl.INSTALL_HINT}")
+            _fail(s, key, "rtl", f"simulates the DSP's Verilog with Verilator: {INSTALL_HINT}")
     if s.run.fidelity.dsp not in ("", "auto") and s.run.fidelity.dsp != s.chip.dsp.mode != "float":
         _fail(s, "run.fidelity.dsp", s.run.fidelity.dsp,
               f"contradicts chip.dsp.mode = {s.chip.dsp.mode!r}; set one of them")

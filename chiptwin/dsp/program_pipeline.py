@@ -171,6 +171,9 @@ class ProgramPipeline:
         ``"float"``, ``"fixed"`` or ``"rtl"`` (kinetics and fir8 then run their RTL blocks;
         validation refuses bin_rows and wiener there).
     kinetics, spatial : plans of those stages, or None.
+    rtl_routines : module, optional
+        At the ``rtl`` level: the RTL blocks (``kinetics_weighted_rtl``, ``fir_rtl``), i.e.
+        :data:`chiptwin.twin.rtl.routines`; passed in, because ``rtl_ref`` imports this package.
     report_error : bool
         With fixed / rtl: a float front end and the float program run beside; :attr:`error` is
         the final output's error in its LSB, :attr:`stage_bounds` each stage's error on its own
@@ -179,8 +182,11 @@ class ProgramPipeline:
 
     def __init__(self, front: Any, level: str, kinetics: KineticsPlan | None,
                  spatial: SpatialPlan | None, report_error: bool = False,
-                 float_front: Any = None) -> None:
-        self.front, self.level = front, level
+                 float_front: Any = None, rtl_routines: Any = None) -> None:
+        if level == "rtl" and rtl_routines is None:
+            raise ValueError("the rtl level needs the RTL blocks: rtl_routines="
+                             "chiptwin.twin.rtl.routines")
+        self.front, self.level, self.rtl = front, level, rtl_routines
         self.kin, self.spatial = kinetics, spatial
         self.formats = spatial.formats if spatial else None
         self._post_overflow: dict[str, dict[str, int]] = {}
@@ -347,9 +353,9 @@ class ProgramPipeline:
     def _run(self, stage: str, codes: np.ndarray, cfg) -> FixedResult:
         """One stage's routine at the level (RTL block where it exists), overflow booked."""
         if stage == "kinetics":
-            fn = _rtl("kinetics_weighted_rtl") if self.level == "rtl" else kinetics_weighted_fixed
+            fn = self.rtl.kinetics_weighted_rtl if self.level == "rtl" else kinetics_weighted_fixed
         elif stage == "fir8":
-            fn = _rtl("fir_rtl") if self.level == "rtl" else fir_fixed
+            fn = self.rtl.fir_rtl if self.level == "rtl" else fir_fixed
         elif stage == "bin_rows":
             fn = bin_lines_fixed
         else:
@@ -385,13 +391,6 @@ def _codes(values: np.ndarray, fmt: Fmt) -> np.ndarray:
     if not np.array_equal(out, codes):
         raise ValueError(f"values are not on the grid of {fmt}")
     return out
-
-
-def _rtl(name: str):
-    import chiptwin.dsp.rtl  # noqa: F401  (puts rtl_ref on the path)
-    from rtl_ref import routines
-
-    return getattr(routines, name)
 
 
 class _ProgramChain:

@@ -138,8 +138,9 @@ def program_pipeline(s: Scenario, keep_codes: bool = False) -> ProgramPipeline:
     fmts = program_formats(chip)
     chain = fmts.front if level in ("fixed", "rtl") else None
     report = chip.dsp.report_error
+    routines = None
     if level == "rtl":
-        from chiptwin.dsp.rtl import RtlPipeline
+        from chiptwin.twin.rtl import RtlPipeline, routines
 
         front = RtlPipeline(chain, report_error=False, keep_codes=keep_codes)
     else:
@@ -149,7 +150,8 @@ def program_pipeline(s: Scenario, keep_codes: bool = False) -> ProgramPipeline:
         kin = kinetics_plan(s, Schedule.from_chip(chip, s.run.duration_s))
     spatial = spatial_plan(s) if any(x in SPATIAL for x in chip.dsp.program) else None
     return ProgramPipeline(front, level, kin, spatial, report_error=report,
-                           float_front=Pipeline("float") if report else None)
+                           float_front=Pipeline("float") if report else None,
+                           rtl_routines=routines)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -219,7 +221,7 @@ def measured_response(dsp: ProgramPipeline, h_norm: np.ndarray, cells: np.ndarra
     probe = ProgramPipeline(dsp.front, dsp.level, None, replace(
         plan, stages=("wiener",), rows=plan.grid_rows, cell_of_pixel=np.arange(plan.n_grid),
         formats=replace(plan.formats, binning=None, fir=None,
-                        kinetics_out=plan.formats.wiener_in)))
+                        kinetics_out=plan.formats.wiener_in)), rtl_routines=dsp.rtl)
     fmt = plan.formats.wiener_in
     out = np.zeros((plan.n_grid, len(cells)))
     for i, j in enumerate(cells):

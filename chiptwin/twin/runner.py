@@ -252,7 +252,7 @@ def _dsp_level(s: Scenario, keep_codes: bool) -> Pipeline:
         return program_pipeline(s, keep_codes)
     chain = chain_for(s.chip) if s.dsp_level in ("fixed", "rtl") else None
     if s.dsp_level == "rtl":
-        from chiptwin.dsp.rtl import RtlPipeline
+        from chiptwin.twin.rtl import RtlPipeline
 
         return RtlPipeline(chain, report_error=s.chip.dsp.report_error, keep_codes=keep_codes)
     return Pipeline(s.dsp_level, chain, report_error=s.chip.dsp.report_error,
