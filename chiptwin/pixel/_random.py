@@ -19,7 +19,8 @@ Samplers, each NumPy's algorithm on the source (``numpy/random/src/distributions
 :func:`next_double` (``(x >> 11)·2⁻⁵³``), :func:`standard_normal` (the 256-level ziggurat; the
 tables are numba's copy of NumPy's ``ziggurat_constants.h``), :func:`poisson` (multiplication
 below a mean of 10, Hörmann's PTRS above). :func:`poisson_ad` is not NumPy's: Ahrens & Dieter's
-(1982) normal-based sampler for means ≥ 10, exact in law and ≈ 3× faster than PTRS (see there).
+(1982) normal-based sampler for means ≥ 10, exact in law and ≈ 3× faster than PTRS
+(``benchmarks/bench_sensor_chain.py`` prints both, piece by piece).
 """
 
 from __future__ import annotations
@@ -131,9 +132,9 @@ def _next_double_jit(source):
 @NJIT_INLINE
 def _ziggurat(source) -> float:
     """NumPy's ``random_standard_normal``: 256 layers; 99.3 % of draws take one 64-bit word
-    (8 bits the layer, 1 the sign, 52 the abscissa) and one comparison, here; the rest go to
-    :func:`_ziggurat_edge` (kept out of this loop: inlined, its logarithms and exponential slowed
-    every draw by ≈ 30 %, measured)."""
+    (8 bits the layer, 1 the sign, 52 the abscissa) and one comparison, inlined into the caller;
+    the rest go to :func:`_ziggurat_edge`, a call (the tail's and wedges' logarithms and
+    exponential stay out of the callers' loops)."""
     r = next_uint64(source)
     idx = r & np.uint64(0xFF)
     r = r >> np.uint64(8)
