@@ -1,8 +1,18 @@
 """A study against a plain loop of run() over the same rows, and bisect against the grid.
 
-    python benchmarks/bench_study.py [--points 10] [--replicates 100] [--loop-rows 100] [--quick]
+    python benchmarks/bench_study.py [--points 10] [--replicates 100] [--loop-rows 100]
+                                     [--floor-rows 30] [--row-only] [--quick]
 
-``--quick``: 2 points × 3 replicates, 3 loop rows, no ``lod_pyro``: the same code path in seconds.
+``--quick``: 2 points × 3 replicates, 3 loop rows, 5 floor rows, no ``lod_pyro``: the same code
+path in seconds. ``--row-only``: the row against its floor (0.) alone.
+
+0. One study row of the bundled ``pyro_1fmol`` (``run_prepared(..., frame_steps=False)``, as
+   :func:`chiptwin.study.rows.run_row` runs it) against its *floor*: the row's random draws made
+   bare with NumPy, one Poisson count per pixel-frame at the row's own expected charge and
+   ``1 + 2M`` standard normals (kTC and M reset + M signal read noise), timed in turn with the
+   rows (median of ``--floor-rows``, after two of each to warm up); with the row's stage split
+   (``summary['stage_time_s']``; ``rest``: the row's wall time outside the stages) and the row
+   but its pixel stage (the chip model, the DSP, the detection and the rest) against the floor.
 
 1. A ``pyro_1fmol`` study (binned photons, float DSP): ``--points`` DNA amounts × ``--replicates``,
    run with 1 and with 2 workers (the scaling), against a plain loop of ``run()`` over the first
@@ -24,12 +34,16 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
 from chiptwin.cli import bundled_studies, resolve_scenario
-from chiptwin.fidelity import run
+from chiptwin.config import load_scenario
+from chiptwin.fidelity import resolve, run
 from chiptwin.study import load_study, run_study
 from chiptwin.study.rows import chip_seed
 from chiptwin.study.spec import point_scenario
 from chiptwin.study.store import Store
+from chiptwin.twin.runner import prepare, run_prepared
 
 STUDY = """
 [study]
@@ -52,16 +66,57 @@ name = "snr_power"
 """
 
 
+def row_vs_floor(n_rows: int) -> None:
+    """Print a ``pyro_1fmol`` study row's time, its floor, their ratio and the row's stages."""
+    s, choice = resolve(load_scenario(resolve_scenario("pyro_1fmol")))
+    scene = prepare(s)
+    lam = scene.pixel_frames(s.chip.timing.t_int_s, s.chip.adc.gain_error).mean_e
+    normals = lam.size * (1 + 2 * s.chip.dsp.cms_samples)
+    rng = np.random.default_rng(1)
+    rows, floors, stages = [], [], []
+    for i in range(n_rows + 2):
+        row_s = replace(s, scenario=replace(s.scenario, seed=1000 + i))
+        t0 = time.perf_counter()
+        result = run_prepared(row_s, scene, choice=choice, frame_steps=False)
+        t1 = time.perf_counter()
+        rng.poisson(lam)
+        rng.standard_normal(normals)
+        t2 = time.perf_counter()
+        if i >= 2:
+            rows.append(t1 - t0)
+            floors.append(t2 - t1)
+            stages.append(result.summary["stage_time_s"])
+    row, floor = float(np.median(rows)), float(np.median(floors))
+    split = {k: float(np.median([st.get(k, 0.0) for st in stages])) for k in stages[0]}
+    rest = float(np.median([r - sum(st.values()) for r, st in zip(rows, stages, strict=True)]))
+    print(f"row vs floor: pyro_1fmol, {lam.shape[0]} frames × {lam.shape[1]} pixels, "
+          f"median of {n_rows} rows, interleaved")
+    print(f"  row   {row:.4f} s   floor {floor:.4f} s ({lam.size:,} Poisson + {normals:,} "
+          f"normal draws, NumPy)   row/floor {row / floor:.2f}×")
+    outside = float(np.median([r - st.get("pixel", 0.0)
+                               for r, st in zip(rows, stages, strict=True)]))
+    parts = "  ".join(f"{k} {v:.4f} s" for k, v in split.items())
+    print(f"  stages: {parts}  rest {rest:.4f} s")
+    print(f"  all but the pixel stage: {outside:.4f} s = {outside / floor:.2f}× the floor")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--points", type=int, default=10)
     ap.add_argument("--replicates", type=int, default=100)
     ap.add_argument("--loop-rows", type=int, default=100)
     ap.add_argument("--skip-lod", action="store_true")
-    ap.add_argument("--quick", action="store_true", help="2 × 3 rows, 3 loop rows, no lod_pyro")
+    ap.add_argument("--floor-rows", type=int, default=30)
+    ap.add_argument("--row-only", action="store_true", help="the row against its floor alone")
+    ap.add_argument("--quick", action="store_true",
+                    help="2 × 3 rows, 3 loop rows, 5 floor rows, no lod_pyro")
     args = ap.parse_args()
     if args.quick:
         args.points, args.replicates, args.loop_rows, args.skip_lod = 2, 3, 3, True
+        args.floor_rows = 5
+    row_vs_floor(args.floor_rows)
+    if args.row_only:
+        return
     folder = Path(tempfile.mkdtemp())
     path = folder / "bench.toml"
     path.write_text(STUDY.format(points=args.points, replicates=args.replicates))

@@ -7,6 +7,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from chiptwin import pixel
 from chiptwin.cli import main
@@ -218,3 +220,121 @@ def test_every_bundled_scenario_writes_its_outputs(name, tmp_path):
     report = (out / "report.md").read_text()
     assert json.loads((out / "summary.json").read_text())["scenario"] == name
     assert all(f"]({png.name})" in report for png in out.glob("*.png"))
+
+
+# --- The chip model's run in closed form (chiptwin.chip.steady) -------------------------------
+# A steady run skips SimPy and hands the DSP whole blocks of jobs (Pipeline.blocks): every output
+# must be SimPy's, bit for bit. SimPy is forced by making steady_run() decline.
+
+THREES = ["assay.flow_period_s=21.0", "run.duration_s=298.0"]  # flows of whole 3-frame jobs
+STEADY_CASES = [
+    [],
+    ["chip.dsp.mode=fixed", "chip.dsp.report_error=true"],
+    ["chip.dsp.mode=fixed", "chip.dsp.acc_bits=14", "chip.dsp.acc_overflow=WRAP"],
+    ["chip.dsp.cms_samples=3", "chip.dsp.average_frames=3", *THREES],
+    ["chip.dsp.mode=fixed", "chip.dsp.report_error=true", "chip.dsp.cms_samples=3",
+     "chip.dsp.average_frames=3", *THREES],
+    ["run.fidelity.photons=expected"],
+    ["run.fidelity.photons=events"],
+    ["run.save_frames=true"],
+]
+
+
+def _outcome(result) -> tuple:
+    arrays = {**result.arrays, **result.trace.to_arrays()}
+    return json.dumps(_strip(result.summary), sort_keys=True, default=repr), {
+        k: (v.dtype.str, v.shape, np.ascontiguousarray(v).tobytes()) for k, v in arrays.items()}
+
+
+def _closed_and_simpy(monkeypatch, run_once):
+    """``run_once()`` through the closed form (checked to be taken), then through SimPy."""
+    import chiptwin.twin.runner as runner
+
+    calls, real = [], runner._steady_chip
+    monkeypatch.setattr(runner, "_steady_chip", lambda *a: calls.append(1) or real(*a))
+    fast = run_once()
+    monkeypatch.setattr(runner, "steady_run", lambda *a: None)
+    slow = run_once()
+    assert calls == [1]
+    return fast, slow
+
+
+@pytest.mark.parametrize("overrides", STEADY_CASES)
+@pytest.mark.parametrize("frame_steps", [True, False])
+def test_closed_form_run_is_the_simpy_run(small_toml, monkeypatch, overrides, frame_steps):
+    s = load_scenario(small_toml, overrides)
+    scene = prepare(s)
+    fast, slow = _closed_and_simpy(
+        monkeypatch, lambda: run_prepared(s, scene, frame_steps=frame_steps))
+    assert _outcome(fast) == _outcome(slow)
+
+
+@pytest.mark.parametrize("block", [3, 7])
+@pytest.mark.parametrize("overrides", [[], ["chip.dsp.mode=fixed", "chip.dsp.report_error=true"],
+                                       ["run.fidelity.photons=expected"]])
+def test_closed_form_across_blocks_of_frames(small_toml, monkeypatch, block, overrides):
+    """Blocks of 3 and 7 frames, jobs and the dark block of 4: jobs span blocks. The chain's
+    outputs, the peak frame and the kept codes are SimPy's run's, bit for bit."""
+    import chiptwin.limits
+    from chiptwin.chip import Recorder
+    from chiptwin.twin.runner import simulate, stage_rng
+
+    s = load_scenario(small_toml, overrides)
+    level = s.run.fidelity.photons
+    monkeypatch.setattr(chiptwin.limits, "BLOCK_SAMPLES", block * 2 * s.chip.dsp.cms_samples
+                        * s.chip.n_pixels)
+    scene = prepare(s)
+    assert scene.block_frames == block
+    sites = np.array([7, 16])
+    fast, slow = _closed_and_simpy(monkeypatch, lambda: simulate(
+        s, scene, level, stage_rng(5, "pixel"), Recorder(frame_steps=False), sites=sites,
+        keep_codes=level != "expected"))
+    for name in ("block_t_s", "value_e", "mean_e", "var_e2", "dark_var_e2", "peak_frame_e",
+                 "pixels"):
+        a, b = getattr(fast, name), getattr(slow, name)
+        assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), name
+    assert fast.peak_block == slow.peak_block and fast.adc_clipped_samples == \
+        slow.adc_clipped_samples
+    assert fast.chip.occupancy == slow.chip.occupancy and fast.chip.dropped == slow.chip.dropped
+    assert [ks for ks, _ in fast.chip.outputs] == [ks for ks, _ in slow.chip.outputs]
+    assert fast.dsp.overflow == slow.dsp.overflow and fast.dsp.error == slow.dsp.error
+    if fast.dsp.kept is not None:
+        assert np.stack(fast.dsp.kept).tobytes() == np.stack(slow.dsp.kept).tobytes()
+
+
+def test_closed_form_study_row_of_pyro_1fmol(monkeypatch):
+    """The study row of the issue (reduced): the closed form and SimPy give the same result."""
+    s = load_scenario(SCENARIOS / "pyro_1fmol.toml", REDUCED["pyro_1fmol"])
+    scene = prepare(s)
+    fast, slow = _closed_and_simpy(monkeypatch, lambda: run_prepared(s, scene,
+                                                                     frame_steps=False))
+    assert _outcome(fast) == _outcome(slow)
+
+
+@settings(max_examples=80, deadline=None)
+@given(pixels=st.integers(1, 40), n=st.integers(1, 6), jobs=st.integers(1, 12),
+       n_sites=st.integers(1, 20), keep=st.booleans(), seed=st.integers(0, 2**32 - 1))
+def test_dsp_batch_finds_the_same_peak_and_cut(pixels, n, jobs, n_sites, keep, seed):
+    """The chip model's DSP wrapper on a batch of jobs (``blocks``) against job by job
+    (``block``): the same outputs at the kept pixels, the same peak output and frame."""
+    from chiptwin.dsp.pipeline import Frame, FrameStack, Pipeline
+    from chiptwin.twin.runner import _TimedPipeline
+    from chiptwin.twin.scene import StageTimer
+
+    rng = np.random.default_rng(seed)
+    frames = [Frame(None, rng.normal(0, 1e3, pixels), rng.random(pixels))
+              for _ in range(1 + n * jobs)]
+    sites = rng.integers(0, pixels, n_sites)  # repeats allowed
+    kept = np.unique(rng.integers(0, pixels, 3)) if keep else None
+    e = float(rng.uniform(0.1, 300.0))
+    one, batch = (_TimedPipeline(Pipeline("float"), StageTimer(), kept, sites, e)
+                  for _ in range(2))
+    for p in (one, batch):
+        p.dark(frames[:1])
+    singles = [one.block(frames[1 + j * n:1 + (j + 1) * n]) for j in range(jobs)]
+    many = batch.blocks(FrameStack.of(frames[1:]), n)
+    for a, b in zip(singles, many, strict=True):
+        for name in ("value", "mean", "var"):
+            assert getattr(a, name).tobytes() == getattr(b, name).tobytes()
+    assert (one.peak_block, one._peak_sum) == (batch.peak_block, batch._peak_sum)
+    assert one.peak_frame_e.tobytes() == batch.peak_frame_e.tobytes()

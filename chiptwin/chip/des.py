@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from operator import itemgetter
 from typing import Any, Protocol
 
 import simpy
@@ -94,6 +95,16 @@ class Schedule:
         start = k * self.frame_period_ns + self.t_reset_ns + self.cms_samples * self.t_conv_ns
         return ticks_to_s(start), ticks_to_s(start + self.t_int_ns)
 
+    def job_ns(self, frames: int, output: bool) -> int:
+        """How long a DSP job of ``frames`` frames takes. Unit: ns.
+
+        ``dsp_ns_per_frame`` spreads the output stages' cycles over a job's frames; a job is
+        charged what it did: its frames, plus the output cycles when it makes an ``output``.
+        """
+        spread = -(-self.dsp_ns_per_output // self.block_frames)
+        return frames * (self.dsp_ns_per_frame - spread) + (self.dsp_ns_per_output if output
+                                                            else 0)
+
     @property
     def busy_ns(self) -> int:
         """Reset, conversions and integration of one frame. Unit: ns."""
@@ -114,7 +125,7 @@ class ChipRun:
 
     @property
     def memory_peak_frames(self) -> int:
-        return max((occ for _, occ in self.occupancy), default=0)
+        return max(map(itemgetter(1), self.occupancy), default=0)
 
 
 class _BlockGet(simpy.resources.base.Get):
@@ -192,6 +203,13 @@ def simulate_chip(
         Receives every event.
     progress : callable, optional
         ``progress(frames_done, n_frames)``, called once per frame.
+
+    Notes
+    -----
+    The reference engine. A steady run (no ties, no overflow, a DSP that keeps up) has the same
+    :class:`ChipRun` and trace in closed form, :func:`chiptwin.chip.steady.steady_run`, which
+    :func:`chiptwin.twin.runner.simulate` takes when its DSP's timing does not depend on its
+    outputs.
     """
     env = simpy.Environment()
     run = ChipRun()
@@ -251,11 +269,7 @@ def _dsp(env, sch: Schedule, dsp: DspEngine, memory: FrameMemory, rec, run):
         rec.record(env.now, "dsp", "job_start", len(items))
         frames = [payload for _, payload in items]
         out = None if first else dsp.block(frames)  # None: no output yet (kinetics window)
-        # the per-frame figure spreads the output cycles over a job; charge what this job did
-        spread = -(-sch.dsp_ns_per_output // sch.block_frames)
-        duration = size * (sch.dsp_ns_per_frame - spread)
-        if out is not None:
-            duration += sch.dsp_ns_per_output
+        duration = sch.job_ns(size, out is not None)
         yield env.timeout(duration)
         run.dsp_busy_ns += duration
         if first:

@@ -307,6 +307,16 @@ def range_kernel(v):
 
 
 @NJIT
+def count_ends_kernel(v, lo, hi):
+    """How many of int64[n] equal ``lo`` or ``hi``, in one pass (codes at either end of a range:
+    the ADC's clipped samples)."""
+    n = 0
+    for i in range(v.size):
+        n += (v[i] == lo) | (v[i] == hi)
+    return n
+
+
+@NJIT
 def lincomb_kernel(big, s_big, k_big, small, s_small, k_small):
     """Full precision ``k_big·(big << s_big) + k_small·(small << s_small)``, ``k = ±1``.
 
@@ -459,3 +469,41 @@ def matvec_kernel(x, g, spec, omode, checked):
                     a += g[s_, p] * x[f, p]
             acc[f, s_] = a
     return acc, n_sat, n_wrap
+
+
+# ---------------------------------------------------------------------------------------------
+# the float level's CMS on integer codes (chiptwin.dsp.pipeline)
+# ---------------------------------------------------------------------------------------------
+
+
+@NJIT
+def cms_float_kernel(codes, m, dark):
+    """``(Σ signal / m − Σ reset / m) − dark`` of ``int64[F, 2m, P]`` codes and a
+    ``float64[P]`` dark reference, ``float64[F, P]``, the sums in ``int64``; and the smallest
+    and largest code.
+
+    The float reference's CMS means are these quotients when every sum is exact in ``float64``
+    (``m · max|code| < 2^53``: then any order of float adds gives the integer sum): the caller
+    checks that with the range returned, before the sums could overflow ``int64`` too. The
+    subtraction is the reference's ``cms − dark`` (``dark = 0`` leaves the CMS bit for bit).
+    """
+    n_frames, _, n_pix = codes.shape
+    out = np.empty((n_frames, n_pix))
+    reset = np.empty(n_pix, np.int64)
+    signal = np.empty(n_pix, np.int64)
+    lo = codes[0, 0, 0] if codes.size else 0
+    hi = lo
+    for f in range(n_frames):
+        reset[:] = 0
+        signal[:] = 0
+        for i in range(m):
+            for p in range(n_pix):
+                a = codes[f, i, p]
+                b = codes[f, m + i, p]
+                reset[p] += a
+                signal[p] += b
+                lo = min(lo, a, b)
+                hi = max(hi, a, b)
+        for p in range(n_pix):
+            out[f, p] = (signal[p] / m - reset[p] / m) - dark[p]
+    return out, lo, hi

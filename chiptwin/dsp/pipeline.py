@@ -5,16 +5,23 @@ analytic mean and variance of its CMS difference (the ``expected`` level). The p
 DSP level on the codes and propagates mean and variance beside it, so every result comes with its
 noise. The dark reference's own noise is common to every output and kept apart
 (:attr:`Pipeline.dark_var`): sums over outputs must add it coherently, not in quadrature.
+
+The chip model hands the DSP one job at a time (:meth:`Pipeline.block`, a list of
+:class:`Frame`); when its run is known ahead (:mod:`chiptwin.chip.steady`) it hands many jobs at
+once (:meth:`Pipeline.blocks`, a :class:`FrameStack`). Both are one computation: ``block`` is
+``blocks`` of a single job, and a batch gives every job the bits it gets alone.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from chiptwin.dsp import reference
+from chiptwin.dsp._kernels import cms_float_kernel
 from chiptwin.dsp.chain import ChainConfig, chain_configs, with_accumulator
 from chiptwin.dsp.frame_ops import average_frames_fixed, cms_fixed, subtract_background_fixed
 from chiptwin.dsp.registers import FixedResult
@@ -43,8 +50,46 @@ class Frame:
 
 
 @dataclass(frozen=True)
+class FrameStack:
+    """Consecutive frames from the ADCs, one row each: :class:`Frame`'s fields stacked.
+
+    Attributes
+    ----------
+    codes : array (n_frames, 2M, n_pixels) of int, or None
+        Each frame's M reset samples, then its M signal samples. None at the ``expected`` level.
+    mean, var : array (n_frames, n_pixels)
+        Each frame's expected CMS difference and its variance. Unit: LSB, LSB².
+    """
+
+    codes: np.ndarray | None
+    mean: np.ndarray
+    var: np.ndarray
+
+    @classmethod
+    def of(cls, frames: Sequence[Frame]) -> FrameStack:
+        """The frames of a list, stacked."""
+        codes = None if frames[0].codes is None else np.stack([f.codes for f in frames])
+        return cls(codes, np.stack([f.mean for f in frames]), np.stack([f.var for f in frames]))
+
+    @classmethod
+    def join(cls, parts: Sequence[FrameStack]) -> FrameStack:
+        """Stacks one after the other, as one (a copy)."""
+        codes = None if parts[0].codes is None else np.concatenate([p.codes for p in parts])
+        return cls(codes, np.concatenate([p.mean for p in parts]),
+                   np.concatenate([p.var for p in parts]))
+
+    def __len__(self) -> int:
+        return len(self.mean)
+
+    def __getitem__(self, frames: slice) -> FrameStack:
+        return FrameStack(None if self.codes is None else self.codes[frames], self.mean[frames],
+                          self.var[frames])
+
+
+@dataclass(frozen=True)
 class BlockOut:
-    """One DSP output: the average of N dark-subtracted frames.
+    """One DSP output: the average of N dark-subtracted frames (from :meth:`Pipeline.blocks`:
+    one row per output, arrays ``(n_outputs, n_pixels)``).
 
     Attributes
     ----------
@@ -93,6 +138,20 @@ class ErrorStats:
         self.sum_sq_err += float(np.sum((fixed - ref) ** 2))
         self.sum_sq_ref += float(np.sum(ref**2))
 
+    def add_each(self, fixed: np.ndarray, ref: np.ndarray) -> None:
+        """:meth:`add` of each row of ``(n_outputs, n_pixels)`` arrays in turn: the same sums,
+        in the same order, as one call per output."""
+        diff = fixed - ref
+        err = diff / self.lsb
+        peaks = np.max(np.abs(err), axis=1, initial=0.0)
+        sums, sq_err, sq_ref = err.sum(axis=1), np.sum(diff**2, axis=1), np.sum(ref**2, axis=1)
+        for j in range(len(err)):
+            self.n += err.shape[1]
+            self.max_abs_lsb = max(self.max_abs_lsb, float(peaks[j]))
+            self.sum_lsb += float(sums[j])
+            self.sum_sq_err += float(sq_err[j])
+            self.sum_sq_ref += float(sq_ref[j])
+
     def summary(self) -> dict[str, float | int | None]:
         """``max_abs_err_lsb``, ``bias_lsb``, ``sqnr_db`` (None when the outputs are exact)."""
         sqnr = (10 * np.log10(self.sum_sq_ref / self.sum_sq_err) if self.sum_sq_err > 0
@@ -136,11 +195,15 @@ class Pipeline:
 
     def dark(self, frames: list[Frame]) -> None:
         """Average K dark frames into the dark reference."""
+        self.dark_stack(FrameStack.of(frames))
+
+    def dark_stack(self, frames: FrameStack) -> None:
+        """:meth:`dark` of stacked frames."""
         self._keep(frames)
         k = len(frames)
-        self.dark_mean = np.mean([f.mean for f in frames], axis=0)
-        self.dark_var = np.sum([f.var for f in frames], axis=0) / k**2
-        if frames[0].codes is None:
+        self.dark_mean = np.mean(frames.mean, axis=0)
+        self.dark_var = np.sum(frames.var, axis=0) / k**2
+        if frames.codes is None:
             self._dark_float = self.dark_mean
             return
         if self.level == "float" or self.error is not None:
@@ -151,18 +214,29 @@ class Pipeline:
 
     def block(self, frames: list[Frame]) -> BlockOut:
         """Subtract the dark reference from N frames and average them."""
+        out = self.blocks(FrameStack.of(frames), len(frames))
+        return BlockOut(value=out.value[0], mean=out.mean[0], var=out.var[0])
+
+    def blocks(self, frames: FrameStack, n: int) -> BlockOut:
+        """:meth:`block` of each run of ``n`` consecutive frames, at once: one output per row.
+
+        Each output has the bits one call of :meth:`block` on its frames gives; the overflow
+        counts are the sums of theirs, :attr:`error` adds the outputs one by one.
+        """
         if self.dark_mean is None:
             raise RuntimeError("Pipeline.block called before the dark reference was taken")
+        if n < 1 or len(frames) % n:
+            raise ValueError(f"Pipeline.blocks: {len(frames)} frames are not runs of {n}")
         self._keep(frames)
-        n = len(frames)
-        mean = np.mean([f.mean for f in frames], axis=0) - self.dark_mean
-        var = np.sum([f.var for f in frames], axis=0) / n**2
-        if frames[0].codes is None:
+        mean = _runs(frames.mean, n).mean(axis=1)
+        mean -= self.dark_mean  # in place: the same numbers, one temporary less
+        var = _runs(frames.var, n).sum(axis=1)
+        var /= n**2
+        if frames.codes is None:
             return BlockOut(value=mean, mean=mean, var=var)
         ref = None
         if self.level == "float" or self.error is not None:
-            diff = reference.subtract_background(self._cms_float(frames), self._dark_float)
-            ref = reference.average_frames(diff, n)[0]
+            ref = reference.average_frames(self._cms_float(frames, self._dark_float), n)
         if self.level == "float":
             return BlockOut(value=ref, mean=mean, var=var)
         c = self.chain
@@ -170,9 +244,9 @@ class Pipeline:
         diff = self._fixed("background", subtract_background_fixed(cms, self._dark_codes,
                                                                     c.background))
         value = c.average.out_fmt.to_float(
-            self._fixed("average", average_frames_fixed(diff, c.average))[0])
+            self._fixed("average", average_frames_fixed(diff, c.average)))
         if self.error is not None:
-            self.error.add(value, ref)
+            self.error.add_each(value, ref)
         return BlockOut(value=value, mean=mean, var=var)
 
     def _fixed(self, step: str, result: FixedResult) -> np.ndarray:
@@ -184,17 +258,38 @@ class Pipeline:
         return result.codes
 
     @staticmethod
-    def _split(frames: list[Frame]) -> tuple[np.ndarray, np.ndarray]:
+    def _split(frames: FrameStack) -> tuple[np.ndarray, np.ndarray]:
         """Reset and signal samples: two ``(n_frames, M, n_pixels)`` arrays."""
-        codes = np.stack([f.codes for f in frames])
-        m = codes.shape[1] // 2
-        return codes[:, :m], codes[:, m:]
+        m = frames.codes.shape[1] // 2
+        return frames.codes[:, :m], frames.codes[:, m:]
 
     @classmethod
-    def _cms_float(cls, frames: list[Frame]) -> np.ndarray:
-        """CMS of each frame: ``(n_frames, n_pixels)``."""
-        return reference.correlated_multiple_sampling(*cls._split(frames))
+    def _cms_float(cls, frames: FrameStack, dark: np.ndarray | None = None) -> np.ndarray:
+        """CMS of each frame, ``(n_frames, n_pixels)``, minus ``dark`` if given: the float
+        reference's numbers (:func:`~chiptwin.dsp.reference.correlated_multiple_sampling`,
+        then :func:`~chiptwin.dsp.reference.subtract_background`).
 
-    def _keep(self, frames: list[Frame]) -> None:
-        if self.kept is not None and frames[0].codes is not None:
-            self.kept.extend(f.codes for f in frames)
+        ADC codes are integers: while ``M · max|code| < 2^53`` their float64 sums are exact in
+        any order, so the reference's means are the integer sums over M, summed by
+        :func:`~chiptwin.dsp._kernels.cms_float_kernel` in one pass; other codes take the
+        reference itself.
+        """
+        codes = frames.codes
+        m = codes.shape[1] // 2
+        if codes.dtype == np.int64 and codes.size and codes.flags.c_contiguous:
+            zero = np.zeros(codes.shape[2]) if dark is None else np.asarray(dark, np.float64)
+            out, lo, hi = cms_float_kernel(codes, m, zero)
+            if m * max(-int(lo), int(hi)) < 2**53:
+                return out
+        cms = reference.correlated_multiple_sampling(*cls._split(frames))
+        return cms if dark is None else reference.subtract_background(cms, dark)
+
+    def _keep(self, frames: FrameStack) -> None:
+        if self.kept is not None and frames.codes is not None:
+            self.kept.extend(frames.codes)
+
+
+def _runs(x: np.ndarray, n: int) -> np.ndarray:
+    """``(n_frames, ...)`` as ``(n_frames // n, n, ...)`` in C order: each job's frames (the
+    layout of one job's stacked frames, so NumPy reduces each job's the same way)."""
+    return np.ascontiguousarray(x).reshape(len(x) // n, n, *x.shape[1:])

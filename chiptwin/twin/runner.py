@@ -19,11 +19,13 @@ from typing import Any
 import numpy as np
 
 from chiptwin import __version__, pixel
-from chiptwin.chip import ChipRun, Recorder, Schedule, simulate_chip
+from chiptwin.chip import ChipRun, Recorder, Schedule, SteadyRun, simulate_chip, steady_run
 from chiptwin.config import Scenario, load_scenario
 from chiptwin.config.consistency import check_consistency, scenario_warnings
+from chiptwin.constants import TICKS_PER_S
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
-from chiptwin.dsp.pipeline import BlockOut, Frame, Pipeline, chain_for
+from chiptwin.dsp._kernels import count_ends_kernel
+from chiptwin.dsp.pipeline import BlockOut, Frame, FrameStack, Pipeline, chain_for
 from chiptwin.dsp.program import is_default
 from chiptwin.twin import levels, shortcuts, stages
 from chiptwin.twin.results import detect, light_decay_per_s
@@ -220,17 +222,21 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
     reader = _FrameReader(s, scene, photons_level, rng, timer, frames_path)
     pipeline = _TimedPipeline(_dsp_level(s, keep_codes), timer, keep, sites,
                               scene.sensor.e_per_lsb)
+    # a run known ahead (steady, and a DSP whose timing no output changes) skips the events
+    steady = (steady_run(scene.sch, rec.frame_steps)
+              if isinstance(pipeline.inner, Pipeline) and isinstance(rec, Recorder) else None)
     inner = ("pixel", "adc", "dsp")
     inner_before = sum(timer.seconds[k] for k in inner)
     t0 = time.perf_counter()
     try:
-        chip = simulate_chip(scene.sch, reader, pipeline, rec, progress)
+        chip = (simulate_chip(scene.sch, reader, pipeline, rec, progress) if steady is None
+                else _steady_chip(steady, reader, pipeline, rec, progress))
     finally:
         reader.close()
     inner_s = sum(timer.seconds[k] for k in inner) - inner_before
     timer.seconds["memory"] += time.perf_counter() - t0 - inner_s  # the event engine itself
     out = _chain_output(chip, scene.sch, pipeline.inner, scene.sensor.e_per_lsb, keep,
-                        scene.n_pixels)
+                        scene.n_pixels, pipeline.stacked())
     out.peak_frame_e, out.peak_block = pipeline.peak_frame_e, pipeline.peak_block
     out.adc_clipped_samples = reader.clipped
     out.full_well_pixel_frames = reader.full_well
@@ -296,6 +302,11 @@ class _FrameReader:
         return Frame(codes=codes, mean=self.moments.cds_mean_lsb[i],
                      var=self.moments.cds_var_lsb2[i])
 
+    def stack(self, k: int) -> FrameStack:
+        """The next block of frames, ``k`` its first, stacked (for a run known ahead)."""
+        self._make(k)
+        return FrameStack(self.codes, self.moments.cds_mean_lsb, self.moments.cds_var_lsb2)
+
     def _make(self, k: int) -> None:
         """Make the block of frames starting at ``k`` (the next one)."""
         if k != self.stop:
@@ -310,7 +321,7 @@ class _FrameReader:
         if self.sampled:
             with self.timer("adc"):
                 top = 2**self.s.chip.adc.bits - 1
-                self.clipped += int(np.count_nonzero((self.codes == 0) | (self.codes == top)))
+                self.clipped += _clipped(self.codes, top)
         self.first, self.stop = k, stop
         if self.saved is not None:
             self.saved.write(k, self.codes if self.sampled else self.moments.cds_mean_lsb)
@@ -333,6 +344,13 @@ class _FrameReader:
     def close(self) -> None:
         if self.saved is not None:
             self.saved.close()
+
+
+def _clipped(codes: np.ndarray, top: int) -> int:
+    """ADC samples at code 0 or at full scale ``top``."""
+    if codes.dtype == np.int64 and codes.flags.c_contiguous:
+        return int(count_ends_kernel(codes.reshape(-1), 0, top))  # one pass, no temporaries
+    return int(np.count_nonzero((codes == 0) | (codes == top)))
 
 
 class _FrameFile:
@@ -373,10 +391,42 @@ class _TimedPipeline:
         self.sites = None if sites is None else np.asarray(sites, dtype=np.int64)
         self.peak_frame_e: np.ndarray | None = None
         self.peak_block, self._peak_sum, self._n = 0, -np.inf, 0
+        self._stacks: list[tuple[np.ndarray, ...]] = []  # the outputs of blocks(), per call
 
     def dark(self, frames):
         with self.timer("dsp"):
             return self.inner.dark(frames)
+
+    def dark_stack(self, frames: FrameStack) -> None:
+        with self.timer("dsp"):
+            self.inner.dark_stack(frames)
+
+    def blocks(self, frames: FrameStack, n: int) -> list[BlockOut]:
+        """:meth:`block` of each run of ``n`` frames (:meth:`Pipeline.blocks`), in order."""
+        with self.timer("dsp"):
+            out = self.inner.blocks(frames, n)
+            if self.sites is not None:  # block()'s figures, the whole frame for the peak only
+                # rows in C order, as block()'s 1-D gathers: NumPy then sums each the same way
+                at_sites = np.ascontiguousarray(out.value[:, self.sites])
+                totals = (at_sites * self.e_per_lsb).sum(axis=1)
+                for j, total in enumerate(totals):
+                    if total > self._peak_sum or self.peak_frame_e is None:
+                        self.peak_frame_e = out.value[j] * self.e_per_lsb
+                        self.peak_block, self._peak_sum = self._n + j, total
+            self._n += len(out.value)
+            rows = (out.value, out.mean, out.var)
+            if self.keep is not None:
+                rows = tuple(np.ascontiguousarray(x[:, self.keep]) for x in rows)
+            self._stacks.append(rows)
+            return [BlockOut(value=v, mean=m, var=w) for v, m, w in zip(*rows, strict=True)]
+
+    def stacked(self) -> dict[str, np.ndarray] | None:
+        """Every output of :meth:`blocks` as ``(n_outputs, n_kept)`` arrays by name (what
+        stacking the outputs one by one gives); None when :meth:`block` made them."""
+        if not self._stacks:
+            return None
+        return {name: np.concatenate([rows[i] for rows in self._stacks])
+                for i, name in enumerate(("value", "mean", "var"))}
 
     def block(self, frames):
         with self.timer("dsp"):
@@ -395,20 +445,109 @@ class _TimedPipeline:
                             var=out.var[self.keep])
 
 
+def _steady_chip(plan: SteadyRun, reader: _FrameReader, dsp: _TimedPipeline, rec: Recorder,
+                 progress: Callable[[int, int], None] | None) -> ChipRun:
+    """The chip model's run in closed form (:mod:`chiptwin.chip.steady`): each block of frames
+    the reader makes goes to the DSP as it is made, its whole jobs in one batch
+    (:meth:`Pipeline.blocks`); the frames of a job not yet whole wait, as in the frame memory."""
+    sch, waiting, outputs = plan.sch, _Waiting(), []
+    dark = plan.dark_done
+    for k in range(0, sch.n_frames, reader.scene.block_frames):
+        waiting.put(reader.stack(k))
+        if dark and len(waiting) >= sch.dark_frames:
+            dsp.dark_stack(waiting.take(sch.dark_frames))
+            dark = False
+        if not dark and plan.dark_done:
+            jobs = min(len(waiting) // sch.block_frames, plan.n_jobs - len(outputs))
+            for frames in waiting.take_jobs(jobs, sch.block_frames):
+                outputs += dsp.blocks(frames, sch.block_frames)
+        waiting.compact()
+        if progress is not None:
+            for j in range(k, min(k + reader.scene.block_frames, sch.n_frames)):
+                progress(j + 1, sch.n_frames)
+    return plan.chip_run(outputs, rec)
+
+
+class _Waiting:
+    """Frames read and in no DSP job yet, oldest first: views of the reader's blocks, the last
+    few of a block copied out of it (:meth:`compact`) so the block itself can go."""
+
+    def __init__(self) -> None:
+        self.parts: list[FrameStack] = []
+        self._block = 0  # frames of the block put last
+
+    def __len__(self) -> int:
+        return sum(len(p) for p in self.parts)
+
+    def put(self, frames: FrameStack) -> None:
+        self.parts.append(frames)
+        self._block = len(frames)
+
+    def take(self, n: int) -> FrameStack:
+        """The oldest ``n`` frames: a view of one block, or (across blocks) a copy."""
+        taken, left = [], n
+        while left:
+            head = self.parts[0]
+            taken.append(head[:left])
+            if len(head) <= left:
+                self.parts.pop(0)
+            else:
+                self.parts[0] = head[left:]
+            left -= len(taken[-1])
+        return taken[0] if len(taken) == 1 else FrameStack.join(taken)
+
+    def take_jobs(self, jobs: int, n: int):
+        """The oldest ``jobs · n`` frames in few stacks of whole jobs: a job across two blocks
+        alone (its frames copied), the jobs within a block together (a view)."""
+        while jobs:
+            head = len(self.parts[0])
+            whole = min(jobs, head // n) or 1
+            yield self.take(whole * n)
+            jobs -= whole
+
+    def compact(self) -> None:
+        """Copy what is left of the last block once the DSP took the rest (only it can be
+        a part of a block: older frames went first)."""
+        if self.parts and len(self.parts[-1]) < self._block:
+            self.parts[-1] = FrameStack.join(self.parts[-1:])
+
+
 def _chain_output(chip: ChipRun, sch: Schedule, dsp: Pipeline, e_per_lsb: float,
-                  keep: np.ndarray | None, n_pixels: int) -> ChainOutput:
+                  keep: np.ndarray | None, n_pixels: int,
+                  stacked: dict[str, np.ndarray] | None = None) -> ChainOutput:
+    """The run's outputs as arrays; ``stacked``: the same, already stacked by the DSP."""
     n_pix = n_pixels if keep is None else len(keep)
-    mids = [np.mean([sum(sch.window_s(k)) / 2 for k in ks]) for ks, _ in chip.outputs]
+    mids = _output_times(chip, sch)
 
     def stack(name: str) -> np.ndarray:
+        if stacked is not None:
+            return stacked[name]
         return np.array([getattr(o, name) for _, o in chip.outputs]).reshape(-1, n_pix)
 
     return ChainOutput(
-        chip=chip, block_t_s=np.array(mids), value_e=stack("value") * e_per_lsb,
+        chip=chip, block_t_s=mids, value_e=stack("value") * e_per_lsb,
         mean_e=stack("mean") * e_per_lsb, var_e2=stack("var") * e_per_lsb**2,
         dark_var_e2=(dsp.dark_var if dsp.dark_var is not None else np.zeros(0)) * e_per_lsb**2,
         dsp=dsp, pixels=keep,
     )
+
+
+def _output_times(chip: ChipRun, sch: Schedule) -> np.ndarray:
+    """Each output's time: the mean of its frames' integration midpoints. Unit: s.
+
+    ``np.mean`` over each output's ``sum(sch.window_s(k)) / 2``, one row per output: the ticks
+    are exact in float64 below 2**53 ns (104 days), so dividing them is
+    :func:`~chiptwin.constants.ticks_to_s`'s correctly rounded ``int / int``; beyond, one by one.
+    """
+    if not chip.outputs:
+        return np.array([])
+    frames = np.array([ks for ks, _ in chip.outputs], dtype=np.int64)  # every job has N frames
+    start = frames * sch.frame_period_ns + (sch.t_reset_ns + sch.cms_samples * sch.t_conv_ns)
+    stop = start + sch.t_int_ns
+    if stop.max() >= 2**53:
+        return np.array([np.mean([sum(sch.window_s(k)) / 2 for k in ks])
+                         for ks, _ in chip.outputs])
+    return ((start / TICKS_PER_S + stop / TICKS_PER_S) / 2).mean(axis=1)
 
 
 def _required_flux(s: Scenario, idx: np.ndarray) -> float:
