@@ -478,9 +478,9 @@ def matvec_kernel(x, g, spec, omode, checked):
 
 @NJIT
 def cms_float_kernel(codes, m, dark):
-    """``(Σ signal / m − Σ reset / m) − dark`` of ``int64[F, 2m, P]`` codes and a
-    ``float64[P]`` dark reference, ``float64[F, P]``, the sums in ``int64``; and the smallest
-    and largest code.
+    """``(Σ signal / m − Σ reset / m) − dark`` of ``[F, 2m, P]`` codes (int64, or the ADC's
+    uint16/uint32) and a ``float64[P]`` dark reference, ``float64[F, P]``, the sums in
+    ``int64``; and the smallest and largest code.
 
     The float reference's CMS means are these quotients when every sum is exact in ``float64``
     (``m · max|code| < 2^53``: then any order of float adds gives the integer sum): the caller

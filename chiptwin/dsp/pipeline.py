@@ -276,7 +276,9 @@ class Pipeline:
         """
         codes = frames.codes
         m = codes.shape[1] // 2
-        if codes.dtype == np.int64 and codes.size and codes.flags.c_contiguous:
+        # int64, or the ADC's narrow unsigned codes (chiptwin.pixel.frames.code_dtype)
+        exact_sum = codes.dtype in (np.int64, np.uint16, np.uint32)
+        if exact_sum and codes.size and codes.flags.c_contiguous:
             zero = np.zeros(codes.shape[2]) if dark is None else np.asarray(dark, np.float64)
             out, lo, hi = cms_float_kernel(codes, m, zero)
             if m * max(-int(lo), int(hi)) < 2**53:

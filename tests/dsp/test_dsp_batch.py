@@ -118,6 +118,7 @@ def cases(draw):
     codes = rng.integers(0, top + 1, (total, 2 * m, pixels))
     codes[rng.random(codes.shape) < 0.1] = 0  # ties with the ends of the range
     codes[rng.random(codes.shape) < 0.1] = top
+    codes = codes.astype(draw(st.sampled_from([np.int64, np.uint16])))  # the ADC's narrow type
     mean = rng.normal(0, 10.0 ** draw(st.integers(-3, 6)), (total, pixels))
     var = rng.random((total, pixels)) * 10.0 ** draw(st.integers(-3, 6))
     frames = [Frame(None if level == "expected" else codes[i], mean[i], var[i])
