@@ -583,3 +583,26 @@ def test_as_built_from_the_scenario_keys(tmp_path):
     adc = Adc(bits=2, inl_shape="table", inl_table="ramp.txt", comparator_noise_lsb=0.25)
     spec = AsBuilt.from_keys(adc, tmp_path)
     assert spec.inl_table == str(tmp_path / "ramp.txt") and spec.comparator_noise_lsb == 0.25
+
+
+def test_expected_on_the_ideal_table_is_the_numpy_sums():
+    """A converter with comparator noise or mismatch but no levels takes its expected moments
+    from one numba pass over the ideal transitions (table_moments); they agree with NumPy's sums
+    of adc_expected (pixel.adc._moments) to 1e-12 LSB / relative, clipped ends and σ from
+    0.05 to 40 LSB included."""
+    from chiptwin.pixel.adc import _moments
+    from chiptwin.pixel.converter import Converter
+
+    rng = np.random.default_rng(5)
+    n = 4000
+    conv = Converter(bits=10, v_min_V=0.0, v_max_V=1.0, comparator_noise_lsb=0.7, shape=(n,),
+                     pixel_gain=rng.uniform(0.98, 1.02, n), pixel_offset_lsb=rng.normal(0, 1, n))
+    lsb = 1.0 / 1024
+    mean_v = rng.uniform(-5 * lsb, 1 + 5 * lsb, n)
+    var_v = (rng.uniform(0.05, 40.0, n) * lsb) ** 2
+    got_mean, got_var = conv.expected(mean_v, var_v)
+    mu = mean_v / lsb * conv.pixel_gain + conv.pixel_offset_lsb
+    sd = np.sqrt((np.sqrt(var_v) / lsb * conv.pixel_gain) ** 2 + 0.7**2)
+    want_mean, want_var = _moments(mu, sd, 1023.0)
+    assert np.allclose(got_mean, want_mean, rtol=1e-12, atol=1e-12)
+    assert np.allclose(got_var, want_var, rtol=1e-12, atol=1e-12)
