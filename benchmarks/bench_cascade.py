@@ -2,7 +2,8 @@
 cascade against the closed form, and the calibrated photon yield against REFERENCE §1.
 
 Usage: ``python benchmarks/bench_cascade.py [--quick] [--repeat 3] [--methods LSODA Radau BDF]``.
-``--quick``: LSODA at rtol 1e-6 only, one repeat: every table, a row or two each.
+``--quick``: LSODA at rtol 1e-6 only, one repeat, the reference cases on 12 windows (not 50) and
+the saturated case over one flow (not four): every table, a row or two each.
 Prints markdown tables. References: the 50-digit solution of the linear regime
 (:mod:`chiptwin.kinetics.cascade_reference`) for the hard cases, paper eq. 19 for the paper's
 limit, and the same model at rtol = 1e-12 (Radau) for the saturated, non-linear case.
@@ -44,16 +45,19 @@ def paper_limit() -> CascadeParams:
                                           apyrase_km_atp_M=1e-2, apyrase_km_dntp_M=1e-2)
 
 
-def _reference_cases() -> dict[str, tuple]:
-    """name: (params, dna_mol, template, flows, n_flows, period, edges, reference photons)."""
+def _reference_cases(quick: bool = False) -> dict[str, tuple]:
+    """name: (params, dna_mol, template, flows, n_flows, period, edges, reference photons).
+    ``quick``: 12 windows per linear case and one saturated flow (the 50-digit and rtol 1e-12
+    references cost most of a quick run)."""
     cases = {}
+    n_edges, sat_template, sat_flows = (12, "T", 1) if quick else (50, "TAAC", 4)
     for name, (p, dna_M, horizon) in {
         "k 1e-3…1e6 /s, 1e-18 M, 1e4 s": (linear(1e6, 1e5, 1.0, 1e-3), 1e-18, 1e4),
         "e^-t to 1e4 s (underflow)": (linear(1e3, 1e2, 1.0, 1.0), 1e-12, 1e4),
         "1e12 photons/s peak": (linear(1e3, 1e2, 1.0, 0.05, volume_L=2.0), 1e-12, 300.0),
     }.items():
         r = ref.linear_rates_of(p, dna_M)
-        edges = np.concatenate([[0.0], np.geomspace(1e-4, horizon, 50)])
+        edges = np.concatenate([[0.0], np.geomspace(1e-4, horizon, n_edges)])
         want = ref.linear_photons(edges, dna_M, r["k_p"], r["k_s"], r["k_t"], r["k_a"],
                                   ref.photons_per_M(p))
         cases[name] = (p, dna_M * p.volume_L, "T", "T", 1, horizon, edges, want)
@@ -61,21 +65,21 @@ def _reference_cases() -> dict[str, tuple]:
     cases["paper's limit vs eq. 19"] = (paper_limit(), 1e-15, "A", "A", 1, 200.0, edges,
                                         np.diff(cf.pyrosequencing_photons(edges, 1e-15)))
     sat = CascadeParams(dntp_M=5e-3)
-    edges = np.linspace(0.0, 600.0, 61)
-    tight = cascade_pyrosequencing([1e-12], "TAAC", "TACG", 4, 150.0, 0.0, sat, rtol=1e-12,
-                                   method="Radau").photons(edges)[0]
-    cases["1 mM, saturated (vs rtol 1e-12)"] = (sat, 1e-12, "TAAC", "TACG", 4, 150.0, edges,
-                                                tight)
+    edges = np.linspace(0.0, 150.0 * sat_flows, 15 * sat_flows + 1)
+    tight = cascade_pyrosequencing([1e-12], sat_template, "TACG", sat_flows, 150.0, 0.0, sat,
+                                   rtol=1e-12, method="Radau").photons(edges)[0]
+    cases["1 mM, saturated (vs rtol 1e-12)"] = (sat, 1e-12, sat_template, "TACG", sat_flows,
+                                                150.0, edges, tight)
     return cases
 
 
-def error_table(methods, repeat: int, rtols=RTOLS) -> None:
+def error_table(methods, repeat: int, rtols=RTOLS, quick: bool = False) -> None:
     print("## Error vs solver tolerance vs wall time\n")
     print("rel = max relative error on windows holding > 1e-6 of the total; abs = max |error| / "
           "total photons; wall = build + photons(), median of", repeat, "(warm JIT)\n")
     print("| case | method | rtol | rel | abs | wall (ms) |")
     print("|---|---|---|---|---|---|")
-    for name, (p, dna, tmpl, flows, n, period, edges, want) in _reference_cases().items():
+    for name, (p, dna, tmpl, flows, n, period, edges, want) in _reference_cases(quick).items():
         big = want > 1e-6 * want.sum()
         for method in methods:
             for rtol in rtols:
@@ -173,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
     cascade_pyrosequencing([1e-15], "TA", "TA", 2, 10.0)  # JIT compile / cache load
     print(f"first cascade call (numba compile or cache load): {time.perf_counter() - t0:.2f} s\n")
     per_flow(args.methods, args.repeat, **rtols)
-    error_table(args.methods, args.repeat, **rtols)
+    error_table(args.methods, args.repeat, **rtols, quick=args.quick)
     versus_closed_form()
     calibrated_yield()
     return 0

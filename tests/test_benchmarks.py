@@ -4,8 +4,10 @@
 Nothing here times anything: a figure is "printed" when the output holds a number with a unit
 (``0.12 s``, ``848 ns``, ``1.9x``, a JSON key ending in ``_s``) or the script's own table header
 (:data:`HEADERS`). The scripts are found by glob, so a new benchmark is covered the day it lands.
-They run two at a time (the machine's two cores), started together by one module fixture; each
-test waits for its own.
+Each script is started when its test (or, in a serial session, the test before it) asks for it,
+so in a serial session two run at a time (the machine's two cores) and under xdist each worker
+runs only the scripts of the tests it was given, one at a time (the other core is the other
+worker's).
 """
 
 from __future__ import annotations
@@ -55,14 +57,43 @@ def _needs_missing_tools(script: Path) -> bool:
                                                   and shutil.which("iverilog"))
 
 
+class _Started:
+    """Scripts started on demand: :meth:`result` starts a script (if not yet) and, in a serial
+    session, the next selected one too, so that two run at a time. Under xdist a worker cannot
+    know which test it gets next: it starts only its own test's script (each script runs once in
+    the session, not once per worker)."""
+
+    def __init__(self, order: list[str], prefetch: bool) -> None:
+        self._pool = ThreadPoolExecutor(max_workers=2 if prefetch else 1)
+        self._order, self._prefetch = order, prefetch
+        self._futures: dict[str, Future] = {}
+
+    def _start(self, name: str) -> Future:
+        if name not in self._futures:
+            self._futures[name] = self._pool.submit(_run, ROOT / "benchmarks" / name)
+        return self._futures[name]
+
+    def result(self, name: str) -> subprocess.CompletedProcess:
+        future = self._start(name)
+        if self._prefetch and name in self._order:
+            later = self._order[self._order.index(name) + 1:]
+            if later:
+                self._start(later[0])
+        return future.result()
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
 @pytest.fixture(scope="module")
-def started():
-    """Every runnable script started, two at a time; name → its future."""
-    pool = ThreadPoolExecutor(max_workers=2)
-    futures = {s.name: pool.submit(_run, s) for s in SCRIPTS
-               if not _needs_missing_tools(s)}
-    yield futures
-    pool.shutdown(wait=True, cancel_futures=True)
+def started(request):
+    """The scripts, started as the tests ask for them (:class:`_Started`)."""
+    order = [item.callspec.params["script"].name for item in request.session.items
+             if item.module is request.module and hasattr(item, "callspec")
+             and not _needs_missing_tools(item.callspec.params["script"])]
+    runner = _Started(order, prefetch="PYTEST_XDIST_WORKER" not in os.environ)
+    yield runner
+    runner.close()
 
 
 def _params():
@@ -79,12 +110,12 @@ def test_there_are_benchmarks():
 
 @pytest.mark.parametrize("script", list(_params()))
 def test_benchmark_runs_quick_and_prints_its_figures(script: Path,
-                                                     started: dict[str, Future]):
+                                                     started: _Started):
     if _needs_missing_tools(script):
         if os.environ.get("CI") == "true":
             pytest.fail("bench_rtl.py needs verilator and iverilog")
         pytest.skip("needs verilator and iverilog: apt-get install verilator iverilog")
-    done = started[script.name].result()
+    done = started.result(script.name)
     out = done.stdout
     assert done.returncode == 0, (f"{script.name} --quick exited {done.returncode}\n"
                                   f"{out[-2000:]}\n{done.stderr[-3000:]}")

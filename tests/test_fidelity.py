@@ -4,8 +4,10 @@ the faithful one."""
 
 from __future__ import annotations
 
+import functools
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,9 +16,9 @@ from scipy import stats
 from chiptwin import pixel
 from chiptwin.cli import main
 from chiptwin.config import load_scenario
-from chiptwin.fidelity import gaussian_tv, resolve, run
+from chiptwin.fidelity import gaussian_tv, resolve
 from chiptwin.fidelity.ladder import HARD_CASES, LEVELS, reference_levels, with_levels
-from chiptwin.twin.runner import fidelity_used
+from chiptwin.twin.runner import fidelity_used, prepare, run_prepared
 from tests.conftest import REDUCED, SCENARIOS
 
 ALL_AUTO = [f'run.fidelity.{stage}="auto"' for stage in LEVELS]
@@ -89,9 +91,29 @@ def test_malformed_budget_exits_2_with_one_line(sets, says, tmp_path, capsys):
 
 BUDGET = {"snr_rel": 0.05, "signal_rel": 0.03, "flow_value_abs": 0.05}
 
+#: Each bundled scene made small for the budget check (:data:`tests.conftest.REDUCED`, and here
+#: the scenes it leaves whole): the same stages, levels and decisions on fewer frames and pixels.
+#: The calibrations, the reference and the auto runs each cost a fixed part per run (the optics
+#: summary's stack quadrature, the cascade's yield fit), so what is cut is the part that grows.
+SMALLER = {
+    **REDUCED,
+    # 8 key flows of 8 s (80 frames, not 336) on 2 rows × 40 columns (not 8 × 64), the wells
+    # still 10 columns apart, binned into one profile, FIR and Wiener over it
+    "ccd_two_wells": ["assay.flow_period_s=8.0", "run.duration_s=80.0", "chip.rows=2",
+                      "chip.cols=40", "sites.at_pixels=[[1, 12], [1, 22]]"],
+    # a site over each of 4 × 8 pixels (not 8 × 16), the Wiener equalizer over them
+    "crosstalk_microarray": ["chip.rows=4", "chip.cols=8"],
+    # pyro_1fmol's reduction (8 flows, 500 s) on the faceplate chip
+    "jssc2006_faceplate": ["assay.n_flows=8", "run.duration_s=500.0"],
+}
+
 
 def _bundled():
     return sorted(p.stem for p in SCENARIOS.glob("*.toml"))
+
+
+def _seeded(s, seed: int):
+    return replace(s, scenario=replace(s.scenario, seed=seed))
 
 
 @pytest.mark.parametrize("name", _bundled())
@@ -100,9 +122,15 @@ def test_auto_is_cheaper_than_the_reference_and_within_its_budget(name):
     seeds the figures' systematic difference from the reference (the mean of the per-seed
     relative differences, at the sites the reference sees with power SNR ≥ 100; the levels may
     draw differently, so each seed's difference holds noise) is within the budget, up to 3
-    standard errors of that mean."""
+    standard errors of that mean.
+
+    One chip (``chip.fixed_pattern_seed`` pinned) and one prepared scene per side, shared by the
+    seeds as a study's replicates share theirs: ``run_prepared`` on it is ``run()`` for the seed
+    bit for bit (tests/test_run.py), and what a scene computes once (the optics summary's stack
+    quadrature, ~1 s on the 150 µm stacks) is computed twice, not six times."""
     sets = ALL_AUTO + [f"run.error_budget.{f}={v}" for f, v in BUDGET.items()]
-    s = load_scenario(SCENARIOS / f"{name}.toml", sets + REDUCED.get(name, []))
+    s = load_scenario(SCENARIOS / f"{name}.toml",
+                      sets + SMALLER.get(name, []) + ["chip.fixed_pattern_seed=7"])
     resolved, choice = resolve(s)
     # rtl is fixed bit for bit (tests/rtl); events gives binned's law (test below) at a cost
     # that grows with the photons (ccd_two_wells: minutes)
@@ -113,10 +141,12 @@ def test_auto_is_cheaper_than_the_reference_and_within_its_budget(name):
     assert any(order[st](choice.levels[st]) < order[st](most[st]) for st in LEVELS)
     assert all(choice.estimate[f] <= b for f, b in BUDGET.items())
     reference = with_levels(s, ref)
+    scenes = prepare(resolved), prepare(reference)
     rel = {"signal": [], "snr": [], "flow": []}
     seen = None
     for seed in range(3):
-        a, r = run(s, seed=seed).summary, run(reference, seed=seed).summary
+        a = run_prepared(_seeded(resolved, seed), scenes[0], choice=choice).summary
+        r = run_prepared(_seeded(reference, seed), scenes[1]).summary
         # relative errors of sites the reference sees (power SNR ≥ 100); a blank's is noise
         seen = seen or [i for i, y in enumerate(r["sites"]) if y["snr_power"] >= 100]
         for key, out in (("signal_e", "signal"), ("snr_power", "snr")):
@@ -140,13 +170,19 @@ def test_binned_counts_have_the_events_law():
     """auto charges binned nothing against events: the same Poisson law of the collected
     charge. On one chip of luciferase_label, over 16 seeds per level, the site signals' means
     agree within 3.5 standard errors of their difference, and each level's spread is the noise
-    model's ``signal_sd_e`` (χ², 15 degrees of freedom, inside its 0.1 %–99.9 % range)."""
-    s = load_scenario(SCENARIOS / "luciferase_label.toml", ["chip.fixed_pattern_seed=5"])
+    model's ``signal_sd_e`` (χ², 15 degrees of freedom, inside its 0.1 %–99.9 % range). The
+    run is cut to 16 s of light (36 frames, not 52): the events level times each pixel's
+    arrivals frame by frame, ~5 ms a frame, and the law is per frame. Each level's scene is
+    prepared once and shared by its seeds (one chip: ``run_prepared`` is ``run()`` bit for bit,
+    tests/test_run.py)."""
+    s = load_scenario(SCENARIOS / "luciferase_label.toml", ["chip.fixed_pattern_seed=5",
+                                                             "run.duration_s=36.0"])
     n = 16
     signals, sd = {}, None
     for level in ("binned", "events"):
         sv = with_levels(s, {"photons": level})
-        runs = [run(sv, seed=seed).summary["sites"] for seed in range(n)]
+        scene = prepare(sv)
+        runs = [run_prepared(_seeded(sv, seed), scene).summary["sites"] for seed in range(n)]
         signals[level] = np.array([[site["signal_e"] for site in sites] for sites in runs])
         sd = np.array([site["signal_sd_e"] for site in runs[0]])
     b, e = signals["binned"], signals["events"]
@@ -161,6 +197,14 @@ def test_binned_counts_have_the_events_law():
 # -- hard cases: the cheap level is wrong, and auto refuses it -------------------------------
 
 def _choice(name: str, sets: list[str] | tuple[str, ...]):
+    return _resolved_choice(name, tuple(sets))
+
+
+@functools.cache
+def _resolved_choice(name: str, sets: tuple[str, ...]):
+    """The choice for a scene, resolved once in this module: a hard case's calibration runs the
+    same in each test that reads it (each calibrates into an empty database; the expected-level
+    runs draw nothing), so its refusal and its reasons are computed once, not twice."""
     s = load_scenario(SCENARIOS / f"{name}.toml", list(sets))
     return resolve(s)[1]
 

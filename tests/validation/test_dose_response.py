@@ -151,24 +151,28 @@ def test_interpolate_lod_table():
 
 
 def test_blank_three_sigma_threshold_gives_the_normal_false_positive_rate():
-    """Monte Carlo: 300 seeds × 128 blank sites (38,400 blanks) on the reference chip, 20 s of
-    the glow's window. The fraction above the summary's threshold (blank mean + 3σ, σ from the
-    noise model) is the normal tail each site's σ predicts (≈ 1 − Φ(3) = 0.135 %) within the
-    99.9 % Clopper–Pearson interval of the count; and the blanks' z-scores have sd 1 within 3 %
-    (8 standard errors of it). A σ 10 % too small would give ≈ 0.32 %, far outside."""
-    zeros = "[" + ", ".join(["0"] * 128) + "]"
+    """Monte Carlo: 75 seeds × 512 blank sites (38,400 blanks) on the reference chip's pixels,
+    ADC and DSP in a 32 × 16 array (4 times its 8 × 16, so a quarter of the runs: a run's cost is
+    mostly per frame; every blank is its own pixel, drawn independently), 20 s of the glow's
+    window. The fraction above the summary's threshold (blank mean + 3σ, σ from the noise
+    model) is the normal tail each site's σ predicts (≈ 1 − Φ(3) = 0.135 %) within the 99.9 %
+    Clopper–Pearson interval of the count; and the blanks' z-scores have sd 1 within 3 % (8
+    standard errors of it). A σ 10 % too small would give ≈ 0.32 %, far outside."""
+    rows, seeds = 32, 75
+    zeros = "[" + ", ".join(["0"] * (rows * 16)) + "]"
     s = load_scenario(PATH, ['sites.at_pixels="all"', f"sites.amounts_fmol={zeros}",
-                             "run.duration_s=40"])
+                             "run.duration_s=40", f"chip.rows={rows}",
+                             "chip.memory.capacity_bits=4194304"])  # 4 × the 1 Mbit for 4 × pixels
     scene = prepare(s)
     above, expected, z = 0, 0.0, []
-    for seed in range(300):
+    for seed in range(seeds):
         r = _run(s, seed, scene)
         d, a = r.summary["dose_response"], r.arrays
         mean, sd = a["dose_expected_e"], a["dose_sd_e"]
         above += int(np.sum(a["dose_signal_e"] > d["threshold_e"]))
         expected += float(np.sum(stats.norm.sf((d["threshold_e"] - mean) / sd)))
         z.append((a["dose_signal_e"] - mean) / sd)
-    n = 300 * 128
+    n = seeds * rows * 16
     ci = stats.binomtest(above, n).proportion_ci(confidence_level=0.999)
     assert ci.low <= expected / n <= ci.high, (above, expected)
     assert expected / n == pytest.approx(1 - stats.norm.cdf(3), rel=0.05)
