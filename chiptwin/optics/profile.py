@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from chiptwin.optics.layers import Layer, Stack
+from chiptwin.optics.quadrature import gauss_legendre
 
 ISOTROPIC_LAW: str = "isotropic"
 LAMBERTIAN_LAW: str = "lambertian"
@@ -43,7 +44,7 @@ LAWS: tuple[str, ...] = (ISOTROPIC_LAW, LAMBERTIAN_LAW)
 N_NODES: int = 4096
 """Table nodes in θₘ. Checked against the homogeneous closed form: |ΔP| < 1e-12 (tests)."""
 
-_GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
+_GL_X, _GL_W = gauss_legendre(8)
 
 
 def fresnel_unpolarised(n1: float, n2: float, beta: NDArray) -> NDArray:
@@ -213,7 +214,7 @@ def build_profile(stack: Stack, law: str, *, na: float | None = None,
 def _disc_at(profile: RadialProfile, radius_um: float, rho: NDArray, n_tau: int):
     """``P_disc(ρ)`` and ``dP_disc/dρ`` at ``rho`` by an ``n_tau``-point quadrature in τ."""
     a = radius_um
-    x, gw = np.polynomial.legendre.leggauss(n_tau)
+    x, gw = gauss_legendre(n_tau)
     d = np.abs(rho - a)[:, None]
     m, h = 0.5 * (rho[:, None] + a + d), 0.5 * (rho[:, None] + a - d)
     # split τ at the point profile's outer edge (a kink of P when it is bounded)

@@ -35,6 +35,7 @@ from chiptwin.optics.collection import (
     collection_efficiency,
     plane_fraction,
 )
+from chiptwin.optics.quadrature import gauss_legendre
 
 APERTURES: tuple[str, ...] = ("rectangle", "inscribed_disc", "equal_area_disc")
 """How :func:`diode_collection_efficiency` models the diode seen by a centred point source."""
@@ -177,7 +178,7 @@ def _footprint_nodes(shape: str, size_um: float, n: int) -> tuple[NDArray, NDArr
     """
     if shape == "point":
         return np.zeros(1), np.zeros(1), np.ones(1)
-    x, w = np.polynomial.legendre.leggauss(n)
+    x, w = gauss_legendre(n)
     if shape == "square":
         q = 0.5 * size_um * x
         qx, qy = np.meshgrid(q, q)

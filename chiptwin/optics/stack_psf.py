@@ -53,6 +53,7 @@ from chiptwin.optics.psf import (
     coupling_psf,
     pixel_centers_um,
 )
+from chiptwin.optics.quadrature import gauss_legendre
 
 EMITTERS: tuple[str, ...] = (ISOTROPIC_LAW, LAMBERTIAN_LAW, LAMBERTIAN_NA2)
 """Emission laws by name: two physical ones and the paper's convention."""
@@ -94,7 +95,7 @@ def receiving_stack(stack: Stack, *, into_silicon: bool = False,
 
 
 def _panel(lo: NDArray, hi: NDArray, n: int) -> tuple[NDArray, NDArray]:
-    x, w = np.polynomial.legendre.leggauss(n)
+    x, w = gauss_legendre(n)
     half = 0.5 * (hi - lo)[:, None]
     return 0.5 * (hi + lo)[:, None] + half * x[None, :], half * w[None, :]
 
