@@ -6,6 +6,7 @@ the only place that knows both the scenario's field names and those functions' s
 
 from __future__ import annotations
 
+import functools
 import math
 import zlib
 from dataclasses import dataclass, replace
@@ -144,12 +145,20 @@ def _closed_form_source(s: Scenario, n: int) -> LightSource:
                       decay_per_s=np.zeros(n), n_sites=n)
 
 
+@functools.lru_cache(maxsize=32)
+def _fitted_yield(target: float, params: kinetics.CascadeParams,
+                  dna_mol: float) -> kinetics.CascadeParams:
+    """The cascade's parameters fitted to a measured photon yield, once per distinct input: a
+    deterministic root search of ≈ 1 s that a ladder or a study would redo for every scene it
+    prepares (the parameters are frozen, so they key the cache)."""
+    return kinetics.fit_photon_yield(target, params, dna_mol=dna_mol).params
+
+
 def _cascade_source(s: Scenario, n: int) -> LightSource:
     a = s.assay
     params = kinetics.CascadeParams.from_closed_form(a.k_t_per_s, a.k_a_per_s, a.quantum_yield)
     if a.photons_per_incorporation:
-        params = kinetics.fit_photon_yield(a.photons_per_incorporation, params,
-                                           dna_mol=a.dna_fmol * FMOL).params
+        params = _fitted_yield(a.photons_per_incorporation, params, a.dna_fmol * FMOL)
     return kinetics.cascade_pyrosequencing(np.full(n, a.dna_fmol * FMOL), a.template,
                                            a.flow_order, a.n_flows, a.flow_period_s, a.start_s,
                                            params)
