@@ -183,9 +183,13 @@ def _exact_moments(
 
 
 def _moments(
-    mu: NDArray[np.float64], sd: NDArray[np.float64], top: float
+    mu: NDArray[np.float64], sd: NDArray[np.float64], top: float, exact_sums=None
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Pick per element: Sheppard inside the range, exact sums near the ends or below 2 LSB rms."""
+    """Pick per element: Sheppard inside the range, exact sums near the ends or below 2 LSB rms.
+
+    ``exact_sums(mu, sd) -> (mean, var)``, if given, makes the exact sums instead of
+    :func:`_exact_moments` (the as-built converter's one numba pass over the ideal transitions).
+    """
     mean, var = mu.copy(), sd * sd + 1.0 / 12.0  # Sheppard: exact to exp(-2π²σ²) inside
     reach = _WINDOW_SIGMA * sd
     near_end = (mu - reach < 0.5) | (mu + reach > top - 0.5)
@@ -194,6 +198,9 @@ def _moments(
     censored = near_end & ~exact
     mean[censored], var[censored] = _sheppard_moments(mu[censored], sd[censored], top)
     idx = np.flatnonzero(exact)
+    if exact_sums is not None:
+        mean[idx], var[idx] = exact_sums(mu[idx], sd[idx])
+        return mean, var
     idx = idx[np.argsort(width[idx], kind="stable")]
     start = 0
     while start < idx.size:  # blocks of similar width, ≤ _CELLS window cells each
