@@ -48,7 +48,7 @@ from chiptwin.pixel.converter import (
     load_transition_table,
 )
 from chiptwin.pixel.expected_adc import cms_moments
-from chiptwin.pixel.frames import CHUNK_PIXELS, binned_codes, chunk_streams
+from chiptwin.pixel.frames import CHUNK_PIXELS, binned_codes, chunk_streams, code_dtype
 from chiptwin.pixel.sensor import (
     clipped_poisson_moments,
     conversion_gain_uV_per_e,
@@ -71,6 +71,7 @@ __all__ = [
     "adc_convert",
     "adc_expected",
     "binned_codes",
+    "code_dtype",
     "chunk_streams",
     "clipped_poisson_moments",
     "cms_moments",

@@ -275,8 +275,8 @@ def poisson(source, lam: float) -> int:
     return _poisson_mult(source, lam)
 
 
-#: Ahrens & Dieter's constants: their series' coefficients are not needed here (px is computed
-#: with log1p and a longer Stirling series, see :func:`_ad_f`); 0!…9! for counts below 10.
+#: 0!…9!: procedure F's Poisson probabilities below 10 (above, :func:`_ad_f` uses log1p and a
+#: longer Stirling series instead of Ahrens & Dieter's 7-digit coefficients).
 _FACT = (1.0, 1.0, 2.0, 6.0, 24.0, 120.0, 720.0, 5040.0, 40320.0, 362880.0)
 _INV_SQRT_2PI = 0.3989422804014327
 
@@ -403,13 +403,11 @@ def fill(source, kind: int, lam: np.ndarray, out: np.ndarray) -> None:
 # ----------------------------------------------------------------------------------------------
 
 _M64 = (1 << 64) - 1
-#: Bit generators whose state the kernels advance inline.
-INLINE = ("PCG64", "SFC64")
 
 
 def state_of(gen: np.random.Generator) -> np.ndarray | None:
     """``gen``'s bit-generator state as a kernel source (a copy), or None when the kernels cannot
-    advance it inline (a bit generator other than :data:`INLINE`: pass ``gen`` itself)."""
+    advance it inline (a bit generator other than PCG64 and SFC64: pass ``gen`` itself)."""
     st = gen.bit_generator.state
     if st["bit_generator"] == "PCG64":
         s, inc = st["state"]["state"], st["state"]["inc"]

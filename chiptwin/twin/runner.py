@@ -348,7 +348,7 @@ class _FrameReader:
 
 def _clipped(codes: np.ndarray, top: int) -> int:
     """ADC samples at code 0 or at full scale ``top``."""
-    if codes.dtype == np.int64 and codes.flags.c_contiguous:
+    if codes.dtype in (np.int64, np.uint16, np.uint32) and codes.flags.c_contiguous:
         return int(count_ends_kernel(codes.reshape(-1), 0, top))  # one pass, no temporaries
     return int(np.count_nonzero((codes == 0) | (codes == top)))
 
@@ -365,7 +365,7 @@ class _FrameFile:
     def __init__(self, path: Path, s: Scenario, scene: Scene, sampled: bool) -> None:
         n, p = scene.sch.n_frames, scene.n_pixels
         if sampled:
-            dtype = np.uint16 if s.chip.adc.bits <= 16 else np.uint32
+            dtype = pixel.code_dtype(s.chip.adc.bits)
             shape: tuple[int, ...] = (n, 2 * scene.sensor.cms_samples, p)
         else:
             dtype, shape = np.float64, (n, p)
