@@ -126,6 +126,26 @@ def mutate(raw: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
     return out
 
 
+def mutate_shallow(raw: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
+    """:func:`mutate` for a reader that never writes into its input: only the tables on the
+    key's path are copied, everything else is shared with ``raw`` (a deep copy of a scenario
+    is most of a one-key sweep's time). Callers check that ``raw`` came back unchanged."""
+    out = dict(raw)
+    *sections, leaf = key.split(".")
+    table = out
+    for name in sections:
+        nxt = table.get(name, {})
+        if not isinstance(nxt, dict):  # as mutate: a parent that is not a table stays
+            return out
+        table[name] = nxt = dict(nxt)
+        table = nxt
+    if value is MISSING:
+        table.pop(leaf, None)
+    else:
+        table[leaf] = copy.deepcopy(value)
+    return out
+
+
 # --- running at a reduced duration ----------------------------------------------------------------
 
 #: Flows a reduced pyrosequencing run keeps: the key TCAG's 1-mers are within the first 8 of TACG.
