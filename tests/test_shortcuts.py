@@ -102,6 +102,26 @@ def test_carried_run_has_the_full_paths_moments_trace_and_flags(wide):
     assert full.carried_pixels == 0 and cut.carried_pixels > 0
 
 
+def test_converters_as_built_are_carried_with_their_pixels(tmp_path):
+    """A chip whose converters differ per pixel (offset and gain mismatch, DNL, comparator noise)
+    keeps each drawn pixel's converter: the moments are the full path's to 1e-12. (The sub-scene
+    once kept the whole array's converters: a reshape error on every such run.)"""
+    from tests.conftest import SMALL
+
+    path = tmp_path / "small.toml"
+    path.write_text(SMALL)
+    s = load_scenario(path, [*WIDE, "chip.adc.offset_sigma_lsb=3.0", "chip.adc.gain_sigma=0.01",
+                             "chip.adc.dnl_rms_lsb=0.2", "chip.adc.comparator_noise_lsb=0.5"])
+    built = (s, prepare(s), stages.site_pixel_indices(s))
+    assert not built[1].sensor.converter.ideal
+    full, _ = _run(built, 0, False)
+    cut, _ = _run(built, 0, True)
+    assert cut.carried_pixels > 0 and np.array_equal(full.pixels, cut.pixels)
+    np.testing.assert_allclose(cut.mean_e, full.mean_e, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(cut.var_e2, full.var_e2, rtol=1e-12)
+    np.testing.assert_allclose(cut.dark_var_e2, full.dark_var_e2, rtol=1e-12)
+
+
 def test_fixed_dsp_overflow_counts_are_the_full_paths(wide):
     """The bit-accurate DSP: its overflow counts (the drawn pixels' on the shortcut) and the
     moments are the full path's."""

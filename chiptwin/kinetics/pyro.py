@@ -201,6 +201,13 @@ def normalise_flows(
     return (values - baseline[..., None]) / reference[..., None]
 
 
+CALL_MAX_N = 655
+"""The longest homopolymer one flow calls: the SFF flowgram's largest value (flow signals kept as
+uint16 hundredths of a 1-mer, 655.35; 454 Life Sciences' Standard Flowgram Format). A site whose
+1-mer reference is barely above zero divides its flows into values of 10¹⁶ and more, which would
+otherwise spell a read of that many bases (a MemoryError, not a wrong call)."""
+
+
 def call_sequence(
     flow_nucleotides: Sequence[str], flow_values: ArrayLike
 ) -> tuple[str, NDArray[np.int64]]:
@@ -218,7 +225,8 @@ def call_sequence(
     called : str
         The read: each flow's nucleotide repeated ``called_n`` times, in flow order.
     called_n : ndarray of int64, shape (n_flows,)
-        ``floor(max(v, 0) + 0.5)``: round half up, negative values call 0.
+        ``floor(max(v, 0) + 0.5)``: round half up, negative values call 0, values above
+        :data:`CALL_MAX_N` call that many.
     """
     values = _checks.as_float_array("flow_values", flow_values)
     if values.ndim != 1 or values.size != len(flow_nucleotides):
@@ -230,5 +238,5 @@ def call_sequence(
     if bad:
         raise ValueError(f"flow_nucleotides[{bad[0]}] = {flow_nucleotides[bad[0]]!r}: each "
                          "flow dispenses exactly one base")
-    called_n = np.floor(np.maximum(values, 0.0) + 0.5).astype(np.int64)
+    called_n = np.floor(np.clip(values, 0.0, CALL_MAX_N) + 0.5).astype(np.int64)
     return "".join(b * int(n) for b, n in zip(letters, called_n, strict=True)), called_n

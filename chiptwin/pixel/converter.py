@@ -362,6 +362,24 @@ class Converter:
             noise = 0.0
         return (True, c[1][lo:hi], c[2][lo:hi], c[3][lo:hi], noise, *c[5:], read_e)
 
+    def at(self, pixels: ArrayLike) -> Converter:
+        """The converters of ``pixels`` (flat C-order indices into :attr:`shape`), as a row of
+        ``len(pixels)``: each keeps its gain, offset and ramp. Ideal: itself (any shape)."""
+        if self.ideal:
+            return self
+        idx = np.asarray(pixels, np.int64).reshape(-1)
+        if idx.size and (idx.min() < 0 or idx.max() >= self.n_pixels):
+            raise ValueError(f"pixels must be in [0, {self.n_pixels - 1}]")
+        _, gain, offset, rows, *_ = self._conv  # type: ignore[attr-defined]
+        levels = self.levels is not None
+        return Converter(
+            self.bits, self.v_min_V, self.v_max_V, self.offset_lsb, self.gain_error,
+            self.comparator_noise_lsb, levels=self.levels,
+            table_of_pixel=rows[idx] if levels else None,
+            pixel_gain=None if self.pixel_gain is None else gain[idx],
+            pixel_offset_lsb=None if self.pixel_offset_lsb is None else offset[idx],
+            shape=(idx.size,))
+
     def check_pixels(self, n_pixels: int, name: str = "converter") -> None:
         """Refuse a converter that is not ideal and describes another number of pixels."""
         if not self.ideal and self.n_pixels != n_pixels:

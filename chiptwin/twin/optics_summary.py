@@ -51,11 +51,12 @@ def optics_figures(s: Scenario, coupling) -> dict[str, Any] | None:
                            "site": int(idx[0]), **_own_and_neighbour(s, col, int(idx[0]))}
     if o.coupling != "contact":
         return out
-    fractions = law_fractions(s)
-    spread = max(fractions.values()) / min(fractions.values()) - 1.0
+    shares = law_shares(s)  # the spread is a ratio: without the transmission, which cancels
+    lo, hi = min(shares.values()), max(shares.values())
+    spread = hi / lo - 1.0 if lo > 0 else (math.inf if hi > 0 else 0.0)
     budget = s.run.error_budget.signal_rel or s.run.error_budget.snr_rel or LAW_SPREAD_DEFAULT
-    out["collected_fraction"] = fractions
-    out["law_spread_rel"] = _r(spread)
+    out["collected_fraction"] = {law: _r(v * o.transmission) for law, v in shares.items()}
+    out["law_spread_rel"] = _r(spread) if math.isfinite(spread) else None  # None: a law sees none
     out["laws_differ_beyond_budget"] = bool(spread > budget)
     if o.faceplate.present:
         out["faceplate"] = faceplate_vs_direct(s)
@@ -91,12 +92,12 @@ def _centre(s: Scenario) -> tuple[dict, int]:
     return grid, r * nc + c
 
 
-def law_fractions(s: Scenario) -> dict[str, float]:
+def law_shares(s: Scenario) -> dict[str, float]:
     """Share of a point site's light at the array's centre on all diodes of the window (the
     footprint moves a share collected over many diodes by far less than the laws differ),
     ``psf`` through the stack, per emitter law (``lambertian_na2`` only without a faceplate: it
-    is a one-medium convention, without the silicon's reflection), times
-    ``optics.transmission``."""
+    is a one-medium convention, without the silicon's reflection); ``optics.transmission`` not
+    applied."""
     grid, _ = _centre(s)
     grid["site_radius_um"] = 0.0  # a point site: the footprint's convolution is 85 % of the cost
     stack, fp = stages.optics_stack(s), stages.optics_faceplate(s)
@@ -107,7 +108,7 @@ def law_fractions(s: Scenario) -> dict[str, float]:
         c = optics.coupling_stack(**grid, stack=stack, emitter=law, faceplate=fp,
                                   into_silicon=s.optics.silicon_n > 0
                                   and law != optics.LAMBERTIAN_NA2)
-        out[law] = _r(float(c.sum()) * s.optics.transmission)
+        out[law] = float(c.sum())
     return out
 
 
@@ -129,4 +130,4 @@ def faceplate_vs_direct(s: Scenario) -> dict[str, Any]:
     return out
 
 
-__all__ = ["faceplate_vs_direct", "law_fractions", "optics_figures"]
+__all__ = ["faceplate_vs_direct", "law_shares", "optics_figures"]

@@ -160,9 +160,12 @@ def _split_dark(s, scene: Scene, keep: np.ndarray) -> Split | None:
 
 
 def sub_scene(scene: Scene, pixels: np.ndarray) -> Scene:
-    """The scene restricted to ``pixels``: coupling rows and the sensor's maps at them."""
+    """The scene restricted to ``pixels``: coupling rows, the sensor's maps and its converters
+    (as built: each pixel's own gain, offset and ramp) at them."""
+    conv = scene.sensor.converter
     sensor = replace(scene.sensor, gain_map=scene.sensor.gain_map[pixels],
-                     dark_e_per_s=scene.sensor.dark_e_per_s[pixels])
+                     dark_e_per_s=scene.sensor.dark_e_per_s[pixels],
+                     converter=None if conv is None else conv.at(pixels))
     return Scene(scene.sch, scene.source, scene.site_photons, scene.coupling[pixels], sensor)
 
 

@@ -34,6 +34,7 @@ from hypothesis import strategies as st
 from chiptwin.cli import main
 from chiptwin.config import ScenarioError, load_scenario, scenario_from_dict
 from tests.config import _mutations as M
+from tests.conftest import REDUCED
 
 SCENARIOS = {p.stem: p for p in M.SCENARIO_FILES}
 RAW = {name: M.read(path) for name, path in SCENARIOS.items()}
@@ -275,6 +276,26 @@ COMBINED = [
     ("atp_glow", ['run.light_estimator="matched"', "assay.turnover_per_s=1e9"],
      "assay.turnover_per_s"),
 ]
+
+
+#: Valid runs that were internal errors (found by the run test above and by the studies' tests):
+#: each runs now, shortened as :data:`tests.conftest.REDUCED` shortens its scenario.
+RUNS = [
+    # the optics summary's law spread divided two shares that rounded to 0 (ZeroDivisionError)
+    ("atp_dose_response", ["optics.transmission=5e-324", "run.duration_s=40.0"]),
+    # the carried dark pixels' sub-scene kept the whole array's converters (a reshape error)
+    ("pyro_1fmol", ["run.carry_dark_pixels=true", "chip.adc.comparator_noise_uV=100"]),
+]
+
+
+@pytest.mark.parametrize(("scenario", "sets"), RUNS, ids=[f"{s}:{'+'.join(v)}" for s, v in RUNS])
+def test_found_valid_run_runs(tmp_path, scenario, sets):
+    out = tmp_path / "out"
+    argv = ["run", scenario, "--out", str(out), "--quiet"]
+    for text in REDUCED.get(scenario, []) + sets:
+        argv += ["--set", text]
+    assert main(argv) == 0
+    assert (out / "summary.json").is_file()
 
 
 @pytest.mark.parametrize(("scenario", "sets", "key"), COMBINED,

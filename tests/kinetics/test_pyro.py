@@ -94,6 +94,14 @@ def test_call_sequence_rounds_half_up_and_clips_negatives():
         pyro.call_sequence(["T"], [np.nan])
 
 
+def test_call_sequence_caps_a_flow_at_the_sff_range():
+    """A 1-mer reference barely above zero divides a flow into 2e16 (lod_pyro at 0.001 fmol
+    once raised MemoryError spelling it): the call stops at 655, the SFF flowgram's top."""
+    called, n = pyro.call_sequence(list("TAC"), [2e16, 655.4, 654.6])
+    assert n.tolist() == [655, 655, 655] == [pyro.CALL_MAX_N] * 3
+    assert called == "T" * 655 + "A" * 655 + "C" * 655
+
+
 @settings(max_examples=200, deadline=None)
 @given(
     insert=st.text(alphabet="ACGT", min_size=0, max_size=40),
