@@ -18,7 +18,14 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy import stats
+
+
+def _stats():
+    """``scipy.stats``, imported when an interval is first asked for: ≈ 0.6 s that every process
+    importing the runner (a pool worker, the CLI) paid whether or not it made an interval."""
+    from scipy import stats
+
+    return stats
 
 
 @dataclass(frozen=True)
@@ -55,8 +62,8 @@ def clopper_pearson(k: int, n: int, confidence: float, sided: str = "two") -> tu
         raise ValueError(f"clopper_pearson: need 0 ≤ k ≤ n, n ≥ 1; got k = {k}, n = {n}")
     alpha = 1.0 - confidence
     tail = alpha / 2 if sided == "two" else alpha
-    lo = 0.0 if k == 0 else float(stats.beta.ppf(tail, k, n - k + 1))
-    hi = 1.0 if k == n else float(stats.beta.ppf(1.0 - tail, k + 1, n - k))
+    lo = 0.0 if k == 0 else float(_stats().beta.ppf(tail, k, n - k + 1))
+    hi = 1.0 if k == n else float(_stats().beta.ppf(1.0 - tail, k + 1, n - k))
     return lo, hi
 
 
@@ -75,8 +82,8 @@ def mean_estimate(x: np.ndarray, confidence: float) -> Estimate:
     if n < 2:
         return Estimate(mean, -math.inf, math.inf, -math.inf, math.inf, n, "t (n < 2: none)")
     se = float(np.std(x, ddof=1)) / math.sqrt(n)
-    t2 = float(stats.t.ppf(0.5 + confidence / 2, n - 1)) * se
-    t1 = float(stats.t.ppf(confidence, n - 1)) * se
+    t2 = float(_stats().t.ppf(0.5 + confidence / 2, n - 1)) * se
+    t1 = float(_stats().t.ppf(confidence, n - 1)) * se
     return Estimate(mean, mean - t2, mean + t2, mean - t1, mean + t1, n, "Student t")
 
 
@@ -97,8 +104,8 @@ def loss_db_interval(x: np.ndarray, ref: np.ndarray, confidence: float) -> Estim
         return Estimate(value, -math.inf, math.inf, -math.inf, math.inf, n, "delta method t")
     var = np.var(x, ddof=1) / (len(x) * mx**2) + np.var(ref, ddof=1) / (len(ref) * mr**2)
     se_db = 10 / math.log(10) * math.sqrt(var)
-    t2 = float(stats.t.ppf(0.5 + confidence / 2, n - 1)) * se_db
-    t1 = float(stats.t.ppf(confidence, n - 1)) * se_db
+    t2 = float(_stats().t.ppf(0.5 + confidence / 2, n - 1)) * se_db
+    t1 = float(_stats().t.ppf(confidence, n - 1)) * se_db
     return Estimate(value, value - t2, value + t2, value - t1, value + t1, n, "delta method t")
 
 

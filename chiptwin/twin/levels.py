@@ -59,7 +59,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from chiptwin import __version__
 from chiptwin.config import Scenario, ScenarioError
@@ -187,9 +187,11 @@ def gaussian_tv(lam: float) -> float:
     sd = math.sqrt(lam)
     lo, hi = max(0, int(lam - 40 * sd - 10)), int(lam + 40 * sd + 10)
     k = np.arange(lo, hi + 1)
-    p = stats.poisson.pmf(k, lam)
-    upper = stats.norm.cdf((k + 0.5 - lam) / sd)
-    lower = np.where(k == 0, 0.0, stats.norm.cdf((k - 0.5 - lam) / sd))
+    # scipy.stats.poisson.pmf and norm.cdf, bit for bit, without importing scipy.stats (≈ 0.6 s
+    # of every process that imports the runner)
+    p = np.exp(special.xlogy(k, lam) - special.gammaln(k + 1) - lam)
+    upper = special.ndtr((k + 0.5 - lam) / sd)
+    lower = np.where(k == 0, 0.0, special.ndtr((k - 0.5 - lam) / sd))
     return float(0.5 * np.sum(np.abs(p - (upper - lower))))
 
 
