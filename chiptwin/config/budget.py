@@ -85,6 +85,13 @@ MARGIN: float = 1.25
 #: tried (at 50 a 10 µm diode under a 125 µm footprint fails); 25 leaves a margin.
 FOOTPRINT_PER_HEIGHT_MAX: float = 25.0
 
+#: Largest faceplate fibre pitch, in the diode's smaller side, the psf level's box-blur quadrature
+#: is allowed. Measured per coupling (NA 1.0, 10 µm of solution, a point or a 5–20 µm disc site,
+#: 12, 30 and 100 µm diodes): at a quarter of the side ≤ 0.7 s, at half 3–4 s, at one side
+#: 3–4 s (12 µm), at two sides 43 s, at 80–120 % of a 100 µm diode 30 s and at 1 mm beyond ten
+#: minutes: the blurred diode edge needs nodes as the fibre widens.
+FIBER_PER_DIODE_MAX: float = 0.5
+
 GIB = float(1 << 30)
 
 

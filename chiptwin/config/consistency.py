@@ -11,7 +11,12 @@ import re
 
 import numpy as np
 
-from chiptwin.config.budget import FOOTPRINT_PER_HEIGHT_MAX, amount_key, check_budget
+from chiptwin.config.budget import (
+    FIBER_PER_DIODE_MAX,
+    FOOTPRINT_PER_HEIGHT_MAX,
+    amount_key,
+    check_budget,
+)
 from chiptwin.config.cost import check_wall_time
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
@@ -318,6 +323,14 @@ def _optics_stack_levels(s: Scenario) -> None:
         if fp.core_n and fp.core_n < 1.0:
             _fail(s, "optics.faceplate.core_n", fp.core_n,
                   "must be 0 (no entry loss) or an index in [1, 4.5]")
+        diode = min(s.chip.pixel.diode_w_um, s.chip.pixel.diode_h_um)
+        if fp.fiber_pitch_um > FIBER_PER_DIODE_MAX * diode:
+            _fail(s, "optics.faceplate.fiber_pitch_um", fp.fiber_pitch_um,
+                  f"must be ≤ {FIBER_PER_DIODE_MAX:g} × the diode's smaller side = "
+                  f"{FIBER_PER_DIODE_MAX * diode:g} µm: the psf level (every faceplate run's "
+                  "optics summary) averages the fibre's blur by quadrature, which does not "
+                  "converge in minutes for a fibre as wide as the diode; imaging faceplates' "
+                  "3–25 µm fibres sit well below a luminescence pixel's diode")
     if o.walls != "none" and o.well_side_um <= 2.0 * s.sites.footprint_radius_um:
         _fail(s, "optics.well_side_um", o.well_side_um,
               f"must be > 2 × sites.footprint_radius_um = {2 * s.sites.footprint_radius_um:g} µm "

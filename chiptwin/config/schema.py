@@ -159,7 +159,8 @@ class FaceplateSection:
     fiber_pitch_um: float = param(
         6.0, lo=LENGTH_MIN_UM, hi=1.0e3,
         doc="µm between fibre centres, the blur of the light carried down; imaging faceplates "
-            "3 … 25 µm (choice 6); 0.1 µm … 1 mm")
+            "3 … 25 µm (choice 6); 0.1 µm … 1 mm and ≤ half the diode's smaller side (the psf "
+            "level's blur quadrature, chiptwin.config.budget.FIBER_PER_DIODE_MAX)")
     thickness_um: float = param(
         1000.0, lo=1.0, hi=1.0e5,
         doc="µm; enters the site height (sites.height_um = layers + this); 1 µm … 10 cm")
