@@ -122,7 +122,7 @@ def _build(cls: type, raw: Any, source: str, prefix: str, skip: frozenset | set 
     if not isinstance(raw, dict):
         raise ScenarioError(source, prefix.rstrip(".") or "(top)", raw, "must be a table")
     fields = {f.name: f for f in dataclasses.fields(cls) if f.name not in skip}
-    hints = _type_hints(cls)
+    hints = type_hints(cls)
     for key in raw:
         if key not in fields:
             raise ScenarioError(source, prefix + key, raw[key], _unknown_key_hint(key, fields))
@@ -139,7 +139,7 @@ def _build(cls: type, raw: Any, source: str, prefix: str, skip: frozenset | set 
 
 
 @functools.cache
-def _type_hints(cls: type) -> dict[str, Any]:
+def type_hints(cls: type) -> dict[str, Any]:
     """``typing.get_type_hints`` of a schema class, once: it evaluates every string annotation
     (``from __future__ import annotations``) and was two thirds of a validation's time."""
     return typing.get_type_hints(cls)

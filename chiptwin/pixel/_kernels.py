@@ -312,48 +312,36 @@ def frame_codes(
     collected = np.empty(n)
     k_signal = np.zeros(n)
     k_reset = np.zeros(n)
+    # the normals of a frame in draw order: kTC (signal, then reset unless true CDS), the M
+    # reset sample rows, the M signal sample rows; one call site of the inlined sampler (each
+    # site is a copy of the ziggurat to compile: five sites took 25 s of a cold first run)
+    n_ktc = (1 if true_cds else 2) if ktc > 0.0 else 0
     for f in range(n_frames):
         for i in range(n):
             count = gaussian_count(source, source, mean_e[f, i], gauss_min_mean, False)
             collected[i] = min(count, full_well)
         for j in range(counted_pixels.size):
             collected[counted_pixels[j]] = counted_e[f, j]
-        if ktc > 0.0:
+        for phase in range(n_ktc + 2 * m):
+            j = phase - n_ktc  # the sample row: reset rows 0 … M − 1, then the signal rows
             for i in range(n):
-                k_signal[i] = ktc * standard_normal(source)
-            for i in range(n):
-                k_reset[i] = k_signal[i] if true_cds else ktc * standard_normal(source)
-        for j in range(m):
-            for i in range(n):
+                z = standard_normal(source)
+                if phase == 0 and n_ktc > 0:
+                    k_signal[i] = ktc * z
+                    if true_cds:
+                        k_reset[i] = k_signal[i]
+                    continue
+                if j < 0:
+                    k_reset[i] = ktc * z
+                    continue
                 rn = read_e[i] if folded else read_noise
-                e = k_reset[i] + rn * standard_normal(source)
+                e = (k_reset[i] if j < m else collected[i] + k_signal[i]) + rn * z
                 volts = pedestal + e * cg_V
                 if built:
                     row[0, i] = volts
                 else:
                     codes_out[f, j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
-            if built:
+            if built and j >= 0:
                 convert_rows(
                     row, codes_out[f, j : j + 1], v_min, lsb, adc_gain, offset, top, conv, source
-                )
-        for j in range(m):
-            for i in range(n):
-                rn = read_e[i] if folded else read_noise
-                e = (collected[i] + k_signal[i]) + rn * standard_normal(source)
-                volts = pedestal + e * cg_V
-                if built:
-                    row[0, i] = volts
-                else:
-                    codes_out[f, m + j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
-            if built:
-                convert_rows(
-                    row,
-                    codes_out[f, m + j : m + j + 1],
-                    v_min,
-                    lsb,
-                    adc_gain,
-                    offset,
-                    top,
-                    conv,
-                    source,
                 )

@@ -49,7 +49,7 @@ from pathlib import Path
 from typing import Any
 
 from chiptwin.config import Scenario, ScenarioError
-from chiptwin.config.load import apply_override, read_toml, scenario_from_dict
+from chiptwin.config.load import apply_override, read_toml, scenario_from_dict, type_hints
 from chiptwin.config.schema import ASSAY_COMMON_KEYS, ASSAY_KIND_KEYS
 from chiptwin.study.metrics import CATALOGUE, check_metric_applies
 
@@ -463,7 +463,7 @@ def _check_key(err: _Errors, where: str, key: str, base_raw: dict) -> None:
     cls: Any = Scenario
     parts = key.split(".")
     for i, part in enumerate(parts):
-        hints = typing.get_type_hints(cls) if dataclasses.is_dataclass(cls) else {}
+        hints = type_hints(cls) if dataclasses.is_dataclass(cls) else {}
         names = {f.name for f in dataclasses.fields(cls)} - {"source"} if hints else set()
         if part not in names:
             prefix = ".".join(parts[:i]) or "(top)"
