@@ -19,12 +19,13 @@ holds it within :data:`ESTIMATE_FACTOR` of measured wall time on bundled scenes.
 
 Calibration: ``benchmarks/bench_estimate.py`` (``python benchmarks/bench_estimate.py``) runs the
 scenes below and prints measured against estimated wall time; the constants were measured with it
-on the 2-core development machine (Linux, Python 3.11, numba cache warm), per scene:
-pyro_1fmol (1,520 frames × 128 pixels × 8 samples, binned, float DSP: 0.43 s),
-pyro_array_256 reduced (500 frames × 65,536 pixels × 8 samples: 21 s),
-ccd_two_wells (336 frames × 512 pixels × 2 samples, fixed DSP and its 7-stage program: 9.2 s),
-crosstalk_microarray (56 frames × 128 × 8, fixed: 0.95 s), the events level on pyro_1fmol and
-ccd_two_wells (reduced: 0.85 s and 8.6 s) and cascade kinetics on pyro_1fmol (8 flows: 8.3 s).
+on the 2-core development machine (Linux, Python 3.11, numba cache warm; recalibrated on
+2026-11-25 after the sampler and steady-schedule speed-ups made the first constants 2–77× high),
+per scene: pyro_1fmol (1,520 frames × 128 pixels × 8 samples, binned, float DSP: 0.088 s),
+pyro_array_256 reduced (500 frames × 65,536 pixels × 8 samples: 9.1 s), ccd_two_wells (336
+frames × 512 pixels × 2 samples, fixed DSP and its 7-stage program: 0.85 s),
+crosstalk_microarray (56 frames × 128 × 8, fixed: 0.24 s), the events level on pyro_1fmol
+(reduced: 0.42 s) and cascade kinetics on pyro_1fmol (8 flows: 0.67 s, a new process 1.1–1.4 s).
 """
 
 from __future__ import annotations
@@ -40,27 +41,36 @@ from chiptwin.config.schema import Scenario
 from chiptwin.constants import s_to_ticks
 
 #: Per run: scene preparation, coupling, outputs gathered (not the interpreter's start). Unit: s.
-RUN_S: float = 0.05
-#: Per frame: the chip model's events (reset, integrate, convert, write, DSP job) and the trace.
-#: Unit: s (pyro_1fmol: 0.43 s over 1,520 frames, 1e-7 s/pixel-sample of it).
-FRAME_S: float = 2.0e-4
+RUN_S: float = 0.02
+#: Per frame of a chip model run in SimPy (a DSP program, the RTL, a memory or DSP that does not
+#: keep up): the events (reset, integrate, convert, write, DSP job) and the trace. Unit: s
+#: (pyro_1fmol at the expected level with a kinetics program: 0.18 s over 1,520 frames).
+FRAME_S: float = 1.0e-4
+#: Per frame of a run known ahead (:func:`chiptwin.chip.steady.steady_run`: the default DSP
+#: chain, the memory and the DSP keeping up): the closed-form schedule and the trace. Unit: s
+#: (pyro_1fmol at the expected level: 0.052 s over 1,520 frames).
+STEADY_FRAME_S: float = 2.0e-5
 #: Per pixel-sample of a frame made and read by the float DSP (moments, Poisson draws, codes).
-#: Unit: s (pyro_array_256: 21 s / (500 × 65,536 × 8)).
-PIXEL_SAMPLE_S: dict[str, float] = {"expected": 6e-8, "binned": 8e-8, "events": 8e-8}
+#: Unit: s (pyro_array_256 reduced: 9.1 s / (500 × 65,536 × 8)).
+PIXEL_SAMPLE_S: dict[str, float] = {"expected": 2.6e-8, "binned": 3.5e-8, "events": 3.5e-8}
 #: Per pixel-sample at each DSP level, beyond the float level's. Unit: s. ``fixed``: ccd_two_wells
-#: (9.2 s over 336 × 1,024 pixel-samples) and crosstalk_microarray (0.95 s over 56 × 1,024).
-#: ``rtl``: NOT measured here (no simulator on the calibration path); a stated guess of 100× the
-#: fixed level, so that an RTL co-simulation of a long run is refused rather than let run.
-DSP_PIXEL_SAMPLE_S: dict[str, float] = {"float": 0.0, "fixed": 2.2e-5, "rtl": 2.2e-3}
+#: (0.85 s over 336 × 1,024 pixel-samples, its 7-stage program in SimPy) and crosstalk_microarray
+#: (0.24 s over 56 × 1,024). ``rtl``: NOT measured here (no simulator on the calibration path); a
+#: stated guess of 100× the fixed level's first calibration (2.2e-5 s), so that an RTL
+#: co-simulation of a long run is refused rather than let run.
+DSP_PIXEL_SAMPLE_S: dict[str, float] = {"float": 0.0, "fixed": 3.0e-6, "rtl": 2.2e-3}
 #: Per site pixel and window at the events level: the rate's cells. Unit: s (pyro_1fmol
-#: reduced: 0.85 s over 116 frames × 2 site pixels, every window above the drawing limit).
-EVENTS_WINDOW_S: float = 3.0e-3
+#: reduced: 0.42 s over 116 frames × 2 site pixels, every window above the drawing limit).
+EVENTS_WINDOW_S: float = 1.7e-3
 #: Per arrival time drawn. Unit: s (ccd_two_wells reduced: ≈ 0.15 s a frame at the drawing limit).
 ARRIVAL_S: float = 7.0e-6
 #: Expected electrons per window up to which every arrival is drawn (``EventPixels.MAX_EVENTS``).
 EVENTS_DRAWN_MAX: int = 20_000
-#: Per assay window (a flow) of the cascade's stiff solver. Unit: s (pyro_1fmol, 8 flows: 8.3 s).
-CASCADE_WINDOW_S: float = 1.0
+#: The cascade's yield fit, once a process (``twin.stages._fitted_yield``), and its stiff solver
+#: per assay window (a flow). Unit: s (pyro_1fmol, 8 flows: 0.67 s with the fit recomputed in a
+#: warm process, 1.1–1.4 s as a new process's first run).
+CASCADE_FIT_S: float = 0.8
+CASCADE_WINDOW_S: float = 0.03
 #: The factor within which the estimate is held of measured wall time (tests/config/test_cost.py).
 ESTIMATE_FACTOR: float = 10.0
 #: Per worker of a study's process pool: spawn, import numpy/numba/chiptwin, load the kernels.
@@ -103,9 +113,11 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
     kinetics = _level(s, "kinetics", "closed_form", ("closed_form", "cascade"))
     ps = frames * c.n_pixels * c.samples_per_frame
     length = "run.duration_s / chip.timing.frame_period_s"
+    frame_s, how = (STEADY_FRAME_S, "in closed form") if _steady(s) else (FRAME_S, "in SimPy")
     terms = [
         CostTerm("scene and outputs", RUN_S, ""),
-        CostTerm(f"{frames} frames of chip events × {FRAME_S:g} s", frames * FRAME_S, length),
+        CostTerm(f"{frames} frames of chip events {how} × {frame_s:g} s", frames * frame_s,
+                 length),
         CostTerm(f"{ps:.3g} pixel-samples ({photons}) × {PIXEL_SAMPLE_S[photons]:g} s",
                  ps * PIXEL_SAMPLE_S[photons],
                  f"{length}, chip.rows × chip.cols, chip.dsp.cms_samples"),
@@ -125,10 +137,24 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
             f"run.fidelity.photons, sites.at_pixels, {length}"))
     if kinetics == "cascade":
         w = _windows(s)
-        terms.append(CostTerm(f"{w} windows of the cascade's stiff solver × "
-                              f"{CASCADE_WINDOW_S:g} s", w * CASCADE_WINDOW_S,
+        terms.append(CostTerm(f"the cascade's yield fit, {CASCADE_FIT_S:g} s, and {w} windows of "
+                              f"its stiff solver × {CASCADE_WINDOW_S:g} s",
+                              CASCADE_FIT_S + w * CASCADE_WINDOW_S,
                               "run.fidelity.kinetics, assay.n_flows"))
     return terms
+
+
+def _steady(s: Scenario) -> bool:
+    """The chip model runs in closed form (as :func:`chiptwin.twin.runner.simulate` decides): the
+    default DSP chain below the RTL and a schedule :func:`~chiptwin.chip.steady.steady_run`
+    takes."""
+    from chiptwin.chip.des import Schedule
+    from chiptwin.chip.steady import steady_run
+    from chiptwin.dsp.program import is_default
+
+    if not is_default(s.chip.dsp.program) or s.dsp_level == "rtl":
+        return False
+    return steady_run(Schedule.from_chip(s.chip, s.run.duration_s), frame_steps=True) is not None
 
 
 def wall_seconds(s: Scenario) -> float:

@@ -38,7 +38,13 @@ def test_the_terms_count_what_the_run_does():
     events = cost.wall_estimate(scene("pyro_1fmol", "run.fidelity.photons=events"))
     assert any("site pixels" in t.what for t in events)
     cascade = cost.wall_estimate(scene("pyro_1fmol", "run.fidelity.kinetics=cascade"))
-    assert any("8 windows of the cascade" in t.what for t in cascade)
+    assert any("8 windows of its stiff solver" in t.what for t in cascade)
+    # the chip model in closed form, or in SimPy when a DSP program runs
+    frame_term = next(t.what for t in est if "frames of chip events" in t.what)
+    assert "in closed form" in frame_term
+    program = cost.wall_estimate(scene("pyro_1fmol", 'chip.dsp.program=["cms", "dark", '
+                                                     '"background", "kinetics"]'))
+    assert any("frames of chip events in SimPy" in t.what for t in program)
     # twice the frames, about twice the time
     longer = scene("pyro_1fmol", "run.duration_s=1000.0")
     fixed_part = cost.RUN_S
@@ -47,10 +53,11 @@ def test_the_terms_count_what_the_run_does():
 
 
 def test_a_run_past_max_wall_s_is_refused_naming_the_key(capsys):
+    # pyro_array_256 as bundled: ≈ 28 s estimated
     with pytest.raises(ScenarioError, match=r"run.max_wall_s = 1.0.*estimated at.*raise "
                                             r"run.max_wall_s"):
-        scene("ccd_two_wells", "run.max_wall_s=1.0")
-    assert main(["run", "ccd_two_wells", "--set", "run.max_wall_s=1", "--quiet",
+        load_scenario(resolve_scenario("pyro_array_256"), ["run.max_wall_s=1.0"])
+    assert main(["run", "pyro_array_256", "--set", "run.max_wall_s=1", "--quiet",
                  "--out", "/nonexistent/never"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "run.max_wall_s" in err[0]
