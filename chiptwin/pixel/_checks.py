@@ -86,3 +86,11 @@ def check_array(
     if hi is not None and arr.max() > hi:
         raise ValueError(f"{name} has a value {arr.max()!r}: must be {allowed}")
     return arr
+
+
+def readonly(a: np.ndarray) -> np.ndarray:
+    """A read-only view of ``a``: one array type for a kernel whichever write flag ``a`` has
+    (numba compiles a kernel again for each)."""
+    view = a.view()
+    view.flags.writeable = False
+    return view

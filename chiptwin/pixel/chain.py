@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from chiptwin.pixel import _kernels
-from chiptwin.pixel._checks import check_array, check_int, check_scalar
+from chiptwin.pixel._checks import check_array, check_int, check_scalar, readonly
 from chiptwin.pixel.converter import Converter, resolve_converter
 
 #: Default pixels per chunk: one stream each, the unit of work of a thread.
@@ -182,8 +182,8 @@ def _run_frame(
 
     def work(c: int) -> None:
         sl = slice(c * chunk, (c + 1) * chunk)
-        _kernels.chain_chunk(
-            shot[c], noise[c], photons[sl], gain[sl], dark[sl], *plan.consts,
+        _kernels.chain_chunk(  # read-only inputs: one compiled version whatever the caller's
+            shot[c], noise[c], photons[sl], readonly(gain[sl]), readonly(dark[sl]), *plan.consts,
             plan.convs[c], reset2d[:, sl], signal2d[:, sl],
         )  # fmt: skip
 

@@ -27,7 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from chiptwin.limits import POISSON_LAM_MAX
 from chiptwin.pixel import _kernels, _random
-from chiptwin.pixel._checks import check_array
+from chiptwin.pixel._checks import check_array, readonly
 from chiptwin.pixel.chain import _readout_consts
 from chiptwin.pixel.converter import Converter, resolve_converter
 from chiptwin.pixel.sensor import _check_readout
@@ -189,10 +189,18 @@ def _draw_chunk(rng: np.random.Generator, lam, pixels, counted, consts, conv, co
     written back (:mod:`chiptwin.pixel._random`), any other bit generator through numba's
     ``Generator`` interface (the same draws, ≈ 2× slower)."""
     source = _random.state_of(rng)
+    # One compiled version per code width: numba compiles the kernel again for every layout and
+    # write flag of its arrays (≈ 20 s each on a cold cache; the tests made five). The means go
+    # in as a read-only C array, the codes as a C array (a chunk's written back after).
+    lam = readonly(np.ascontiguousarray(lam))
+    out = codes if codes.flags.c_contiguous else np.empty(codes.shape, codes.dtype)
     _kernels.frame_codes(rng if source is None else source, lam, pixels, counted, *consts, conv,
-                         codes)
+                         out)
+    if out is not codes:
+        codes[...] = out
     if source is not None:
         _random.put_state(rng, source)
+
 
 
 def _counted(pixels: ArrayLike, counted_e: ArrayLike | None, shape: tuple[int, int]
