@@ -314,7 +314,8 @@ def frame_codes(
     k_reset = np.zeros(n)
     # the normals of a frame in draw order: kTC (signal, then reset unless true CDS), the M
     # reset sample rows, the M signal sample rows; one call site of the inlined sampler (each
-    # site is a copy of the ziggurat to compile: five sites took 25 s of a cold first run)
+    # site is a copy of the ziggurat for numba to type and compile: five sites cost 25 s of a
+    # cold first run, one 22 s)
     n_ktc = (1 if true_cds else 2) if ktc > 0.0 else 0
     for f in range(n_frames):
         for i in range(n):
