@@ -121,21 +121,29 @@ def _build(cls: type, raw: Any, source: str, prefix: str, skip: frozenset | set 
     """Recursively build dataclass ``cls`` from table ``raw``, checking every key."""
     if not isinstance(raw, dict):
         raise ScenarioError(source, prefix.rstrip(".") or "(top)", raw, "must be a table")
-    fields = {f.name: f for f in dataclasses.fields(cls) if f.name not in skip}
-    hints = type_hints(cls)
+    fields, sections = _layout(cls, frozenset(skip))
     for key in raw:
         if key not in fields:
             raise ScenarioError(source, prefix + key, raw[key], _unknown_key_hint(key, fields))
     values = {}
     for name, f in fields.items():
         key = prefix + name
-        if dataclasses.is_dataclass(hints[name]):
-            values[name] = _build(hints[name], raw.get(name, {}), source, key + ".")
+        if name in sections:
+            values[name] = _build(sections[name], raw.get(name, {}), source, key + ".")
         elif name in raw:
             values[name] = check_value(f, raw[name], source, key)
         elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
             raise ScenarioError(source, key, dataclasses.MISSING, "is required")
     return cls(**values)
+
+
+@functools.cache
+def _layout(cls: type, skip: frozenset) -> tuple[dict[str, dataclasses.Field], dict[str, type]]:
+    """A schema class's fields by name (``skip`` left out) and its sub-sections' classes, once:
+    a study or a mutation sweep builds thousands of scenarios from the same classes."""
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.name not in skip}
+    hints = type_hints(cls)
+    return fields, {n: hints[n] for n in fields if dataclasses.is_dataclass(hints[n])}
 
 
 @functools.cache
