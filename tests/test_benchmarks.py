@@ -27,8 +27,6 @@ from tests.rtl.conftest import in_ci
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPTS = sorted((ROOT / "benchmarks").glob("*.py"))
 
-#: Scripts owned on another branch; until they take ``--quick`` their test is an expected failure.
-ELSEWHERE = {"bench_sensor_chain.py", "bench_study.py", "bench_fixed.py"}
 #: A table header a script prints, where its figures carry their unit in the header.
 HEADERS = {
     "bench_cascade.py": "| method | rtol | wall per flow (ms) |",
@@ -48,10 +46,6 @@ def _run(script: Path) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
     return subprocess.run([sys.executable, str(script), "--quick"], cwd=ROOT, env=env,
                           capture_output=True, text=True, timeout=TIMEOUT_S)
-
-
-def _expected_to_fail(script: Path) -> bool:
-    return script.name in ELSEWHERE and "--quick" not in script.read_text()
 
 
 def _needs_missing_tools(script: Path) -> bool:
@@ -100,10 +94,7 @@ def started(request):
 
 def _params():
     for script in SCRIPTS:
-        marks = []
-        if _expected_to_fail(script):
-            marks.append(pytest.mark.xfail(strict=False, reason="gets --quick on branch speed"))
-        yield pytest.param(script, id=script.name, marks=marks)
+        yield pytest.param(script, id=script.name)
 
 
 def test_there_are_benchmarks():

@@ -202,7 +202,6 @@ def _draw_chunk(rng: np.random.Generator, lam, pixels, counted, consts, conv, co
         _random.put_state(rng, source)
 
 
-
 def _counted(pixels: ArrayLike, counted_e: ArrayLike | None, shape: tuple[int, int]
              ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """Checked ``counted_pixels`` and ``counted_e`` for a ``(n_frames, n_pixels)`` run."""

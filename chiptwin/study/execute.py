@@ -94,27 +94,24 @@ class PoolExecutor:
                                         initializer=die_with_parent, initargs=(os.getpid(),))
 
     def run(self, tasks: Iterable[RowTask]) -> Iterator[dict[str, Any]]:
+        # Rows still in flight when this stops are cancelled by close() and abort(), through
+        # shutdown(cancel_futures=True) in the pool's manager thread. Cancelled from this thread,
+        # a queued row raced the manager marking it broken once abort() had terminated the
+        # workers (InvalidStateError in Python 3.11's terminate_broken: a traceback after
+        # "terminated (SIGTERM)", about one stop in 35).
         pending = iter(tasks)
         running = set()
-        try:
-            while True:
-                while len(running) < 2 * self.workers:
-                    task = next(pending, None)
-                    if task is None:
-                        break
-                    running.add(self.pool.submit(run_row, task))
-                if not running:
-                    return
-                done, running = wait(running, return_when=FIRST_COMPLETED)
-                for future in done:
-                    yield future.result()
-        finally:
-            # The rows still in flight are not cancelled here: close() and abort() do it through
-            # shutdown(cancel_futures=True), in the pool's manager thread. Cancelled from this
-            # thread, a queued row raced the manager marking it broken once abort() had
-            # terminated the workers (InvalidStateError in Python 3.11's terminate_broken: a
-            # traceback after "terminated (SIGTERM)", about one stop in 35).
-            running.clear()
+        while True:
+            while len(running) < 2 * self.workers:
+                task = next(pending, None)
+                if task is None:
+                    break
+                running.add(self.pool.submit(run_row, task))
+            if not running:
+                return
+            done, running = wait(running, return_when=FIRST_COMPLETED)
+            for future in done:
+                yield future.result()
 
     def close(self) -> None:
         self.pool.shutdown(wait=True, cancel_futures=True)

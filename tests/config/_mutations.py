@@ -111,19 +111,7 @@ def all_mutations(with_extremes: bool = True) -> list[tuple[Path, str, Any]]:
 
 def mutate(raw: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
     """A deep copy of ``raw`` with ``key`` set to ``value`` (deleted for :data:`MISSING`)."""
-    out = copy.deepcopy(raw)
-    *sections, leaf = key.split(".")
-    table = out
-    for name in sections:
-        nxt = table.setdefault(name, {})
-        if not isinstance(nxt, dict):  # a parent was mutated away; not reachable from one key
-            return out
-        table = nxt
-    if value is MISSING:
-        table.pop(leaf, None)
-    else:
-        table[leaf] = copy.deepcopy(value)
-    return out
+    return mutate_shallow(copy.deepcopy(raw), key, value)
 
 
 def mutate_shallow(raw: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
@@ -135,7 +123,7 @@ def mutate_shallow(raw: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
     table = out
     for name in sections:
         nxt = table.get(name, {})
-        if not isinstance(nxt, dict):  # as mutate: a parent that is not a table stays
+        if not isinstance(nxt, dict):  # a parent was mutated away; not reachable from one key
             return out
         table[name] = nxt = dict(nxt)
         table = nxt
