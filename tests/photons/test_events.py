@@ -223,3 +223,32 @@ def test_saturation_time_from_rate_has_the_event_based_distribution():
         assert abs(t_sat[sl].mean() - mean) < 5 * sd / np.sqrt(250)
     never = saturation_time_from_rate(glow, 0.0, 1e-6, 6e6, np.random.default_rng(0))
     assert np.isinf(never).all()
+
+
+def test_event_pixels_fill_time_is_the_root_of_the_exact_integral():
+    """``EventPixels._invert`` (Newton inside a bisection bracket) against ``scipy``'s brentq on
+    the same exact Λ, to 1e-12 s: targets from 1e-9 of the window's electrons to all of them,
+    a window that opens before any light (rate 0 there: the bisection fallback) and one
+    inside a decaying flash (Newton's case); Λ crosses the target at the returned time."""
+    from types import SimpleNamespace
+
+    from scipy.optimize import brentq
+
+    from chiptwin.twin.stages import EventPixels
+
+    late = PulseTrain(site=[0, 1, 1], onset_s=[1.0, 1.5, 2.2], amplitude_per_s=[5000.0, 800.0,
+                      3e4], decay_per_s=[0.5, 3.0, 40.0], n_sites=2)
+    sensor = SimpleNamespace(qe=0.6, gain_map=np.array([1.0, 0.9]), dark_e_per_s=np.zeros(2),
+                             full_well_e=1e4)
+    ev = EventPixels(late, WEIGHTS, np.arange(2), sensor, np.random.default_rng(0))
+    for t0, t1 in ((0.0, 3.0), (2.3, 2.4)):
+        total = ev.electrons_until(t0, np.full(2, t1))
+        for frac in (1e-9, 0.25, 0.5, 0.999999, 1.0):
+            got = ev._invert(t0, t1, frac * total, total)
+            for p in range(2):
+                def excess(t, p=p):
+                    return ev.electrons_until(t0, np.full(2, t))[p] - frac * total[p]
+
+                root = brentq(excess, t0, t1, xtol=1e-15, rtol=4 * np.finfo(float).eps)
+                assert got[p] == pytest.approx(root, abs=1e-12), (t0, frac, p)
+                assert excess(got[p] - 1e-11) < 0 <= excess(min(got[p] + 1e-11, t1)) + 1e-9
