@@ -362,6 +362,18 @@ class Converter:
             noise = 0.0
         return (True, c[1][lo:hi], c[2][lo:hi], c[3][lo:hi], noise, *c[5:], read_e)
 
+    def input_codes(self, volts: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Each converter's continuous code ``x_i`` of ``volts`` (the module's conversion without
+        its noise) and its slope ``dx_i/dV``, broadcast to ``(..., *shape)``. Unit: LSB, LSB/V.
+        Not for an ideal converter (it has no shape)."""
+        if self.ideal:
+            raise ValueError("input_codes needs a converter as built, with its pixel shape")
+        v_min, lsb, gain, offset, _ = self.consts()
+        _, g, o, *_ = self._conv  # type: ignore[attr-defined]
+        g, o = g.reshape(self.shape), o.reshape(self.shape)
+        x = ((np.asarray(volts, float) - v_min) / lsb * gain + offset) * g + o
+        return x, np.broadcast_to(gain / lsb * g, x.shape)
+
     def at(self, pixels: ArrayLike) -> Converter:
         """The converters of ``pixels`` (flat C-order indices into :attr:`shape`), as a row of
         ``len(pixels)``: each keeps its gain, offset and ramp. Ideal: itself (any shape)."""

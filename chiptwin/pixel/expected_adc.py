@@ -21,19 +21,34 @@ total variance gives::
     Var[mean of M codes] = Var_y(f(y)) + E_y[v(y)]/M
                          = v_tot/M + (1 − 1/M)·Var_y(f(y)),   v_tot = Var_y(f) + E_y[v]
 
-so the mean and ``v_tot`` are one exact Gaussian sum each and only ``E_y[v(y)]`` needs a
-quadrature: Gauss–Hermite over ``y``, :data:`GH_NODES` nodes by the ratio of the shared rms to the
-white rms. (``v`` rather than ``Var_y(f)``: ``f`` carries the input's trend, which multiplies
-the quadrature's error by the spread; ``v`` stays ≈ white² + 1/12.) With true CDS the two sides
-share ``k``: ``Cov(S̄, R̄) = Cov_k(g(k), f_r(k))`` with ``g(k) = E_c[f_s]`` (exact: one Gaussian),
-on the same kind of nodes. ``Var D = Var S̄ + Var R̄ − 2 Cov(S̄, R̄)``.
+so the mean and ``v_tot`` are one exact Gaussian sum each and only ``E_y[v(y)]`` needs more.
+(``v`` rather than ``Var_y(f)``: ``f`` carries the input's trend, which multiplies a
+quadrature's error by the spread; ``v`` stays ≈ white² + 1/12.) With true CDS the two sides
+share ``k``: ``Cov(S̄, R̄) = Cov_k(g(k), f_r(k))`` with ``g(k) = E_c[f_s]`` (exact: one Gaussian).
+``Var D = Var S̄ + Var R̄ − 2 Cov(S̄, R̄)``.
 
-Accuracy (``tests/pixel/test_expected_adc.py``): ``E_y[v]`` against a 16001-point trapezoid over
-±8σ, comparator noise 0 … 0.5 LSB with INL, DNL and mismatch, shared rms σ_y 0.1 … 20 LSB, is
-within ``GH_REL_TOL·σ_y² + GH_ABS_TOL_LSB2`` (measured worst 0.03 LSB² at σ_y = 5 LSB with no
+Two ways to the two expectations over a Gaussian ``y``:
+
+* **The sawtooth's series** (the ideal transitions ``k + ½``, with mismatch and comparator
+  noise, inside the range): there the code is ``round(x)``, ``x − round(x)`` is the sawtooth
+  ``Σ (−1)^{k+1} sin(2πkx)/(πk)``, and white noise of rms ``u`` damps its ``k``-th harmonic by
+  ``e^{−2π²u²k²}``; ``v``, ``f`` and their products are then short trigonometric series whose
+  Gaussian expectations are closed forms (:func:`_series_mean_of_var`, :func:`_series_ktc_cov`).
+  ``⌈1.5/u⌉`` harmonics (2 at ``u`` ≥ 1 LSB, 12 at the reference chip's 0.13 LSB of read
+  noise) leave out terms below 1e-19.
+* **Gauss–Hermite** over ``y`` elsewhere (a transition table: INL, DNL or a measured one; the
+  range's ends; white noise below :data:`SERIES_MIN_WHITE_LSB`): :data:`GH_NODES` nodes by the
+  ratio of the shared rms to the white rms, on the converter's exact table sums.
+
+Accuracy (``tests/pixel/test_expected_adc.py``), against a trapezoid of 16001 points over ±8σ
+of the exact table sums: the series within 1e-12 LSB² (measured ≤ 2e-13, comparator noise
+0 … 1 LSB, read noise 0.13 … 1 LSB, shared rms 0.05 … 20 LSB, mismatch on), Gauss–Hermite within
+``GH_REL_TOL·σ_y² + GH_ABS_TOL_LSB2`` (measured worst 0.03 LSB² at σ_y = 20 LSB with no
 comparator noise; below 1e-3 LSB² wherever σ_y ≤ 4× the white rms, to 1e-8 at ≤ 2×). The CMS
 moments agree with a Monte Carlo of the binned kernel within its standard errors (same test).
-Cost: ≈ 35 µs a pixel-frame (≈ 150 table sums of ≈ 20 codes), ~70× the linear ideal model.
+Cost: Gauss–Hermite ≈ 35 µs a pixel-frame (≈ 150 table sums of ≈ 20 codes), ~70× the linear
+ideal model; the series ≈ 1.5 µs (pyro_1fmol with a 1-LSB comparator, expected level: 0.46 s
+against 19.4 s, one run each).
 """
 
 from __future__ import annotations
@@ -87,7 +102,25 @@ def mean_of_var(conv: Converter, mean_V: NDArray[np.float64], shared_sd_V: NDArr
                 white_var_V: float) -> NDArray[np.float64]:
     """``E_y[v(y)]`` for ``y ~ N(mean_V, shared_sd_V²)``: the mean variance of one code given the
     shared part, ``v(y)`` the code's variance at input ``y`` plus white noise of variance
-    ``white_var_V``. Arrays broadcast to ``(..., *conv.shape)``. Unit: LSB²."""
+    ``white_var_V``. Arrays broadcast to ``(..., *conv.shape)``. Unit: LSB².
+
+    On the ideal transitions inside the range, the sawtooth's series (:func:`_series_mean_of_var`);
+    elsewhere (a transition table, the range's ends, white noise below :data:`SERIES_MIN_WHITE_LSB`)
+    the Gauss–Hermite quadrature."""
+    mean_V, shared_sd_V = np.broadcast_arrays(np.asarray(mean_V, float),
+                                              np.asarray(shared_sd_V, float))
+    x, slope = conv.input_codes(mean_V)
+    sigma, u = shared_sd_V * slope, _white_lsb(conv, white_var_V, slope)
+    series = _on_series(conv, x, u, 10.0 * (sigma + u))
+    return _by_series(conv, series, lambda: _series_mean_of_var(x[series], sigma[series],
+                                                                u[series]),
+                      lambda sub, rest: _gh_mean_of_var(sub, mean_V[rest], shared_sd_V[rest],
+                                                        white_var_V))
+
+
+def _gh_mean_of_var(conv: Converter, mean_V: NDArray[np.float64],
+                    shared_sd_V: NDArray[np.float64], white_var_V: float) -> NDArray[np.float64]:
+    """:func:`mean_of_var` by Gauss–Hermite over ``y``, :data:`GH_NODES` nodes."""
     z, w = _nodes_for(conv, shared_sd_V, white_var_V)
     zz = z.reshape((-1,) + (1,) * np.ndim(mean_V))
     _, v = conv.expected(mean_V + shared_sd_V * zz, white_var_V)
@@ -145,7 +178,25 @@ def _shared_ktc_cov(conv: Converter, s_mu: NDArray[np.float64], shot_V2: NDArray
                     ped: NDArray[np.float64], k_sd: float, white: float) -> NDArray[np.float64]:
     """``Cov(S̄, R̄) = Cov_k(g(k), f_r(k))`` over the kTC draw both sides share: ``g(k)`` the
     signal code's mean given ``k`` (charge and white noise summed exactly), ``f_r(k)`` the reset
-    code's. Unit: LSB²."""
+    code's. Unit: LSB². The sawtooth's series where :func:`mean_of_var` takes it (both sides
+    inside the range), Gauss–Hermite elsewhere."""
+    a, slope = conv.input_codes(s_mu)
+    b = np.broadcast_to(conv.input_codes(ped)[0], a.shape)
+    kappa = k_sd * slope
+    u_s, u_r = _white_lsb(conv, shot_V2 + white, slope), _white_lsb(conv, white, slope)
+    series = (_on_series(conv, a, u_r, 10.0 * (kappa + u_s))
+              & _on_series(conv, b, u_r, 10.0 * (kappa + u_r)))
+    shape = a.shape
+    ped_b, shot_b = np.broadcast_to(ped, shape), np.broadcast_to(shot_V2, shape)
+    return _by_series(
+        conv, series,
+        lambda: _series_ktc_cov(a[series], b[series], kappa[series], u_s[series], u_r[series]),
+        lambda sub, rest: _gh_ktc_cov(sub, s_mu[rest], shot_b[rest], ped_b[rest], k_sd, white))
+
+
+def _gh_ktc_cov(conv: Converter, s_mu: NDArray[np.float64], shot_V2: NDArray[np.float64],
+                ped: NDArray[np.float64], k_sd: float, white: float) -> NDArray[np.float64]:
+    """:func:`_shared_ktc_cov` by Gauss–Hermite over ``k``."""
     z, w = _nodes_for(conv, np.full(ped.shape, k_sd), white)
     zz = z.reshape((-1,) + (1,) * s_mu.ndim)
     g, _ = conv.expected(s_mu + k_sd * zz, shot_V2 + white)
@@ -154,6 +205,114 @@ def _shared_ktc_cov(conv: Converter, s_mu: NDArray[np.float64], shot_V2: NDArray
     f_r = f_r - np.tensordot(w, f_r, axes=1)
     f_r = f_r.reshape((z.size,) + (1,) * (s_mu.ndim - ped.ndim) + ped.shape)
     return np.tensordot(w, g * f_r, axes=1)
+
+
+# --- the sawtooth's series ---------------------------------------------------------------------
+
+#: The series is used where every converter's white noise (read + comparator, per sample) is at
+#: least this rms: its harmonics then number ``⌈1.5 / u⌉`` ≤ 96. Unit: LSB.
+SERIES_MIN_WHITE_LSB: float = 1.0 / 64
+
+
+def _white_lsb(conv: Converter, var_V: ArrayLike, slope: NDArray[np.float64]
+               ) -> NDArray[np.float64]:
+    """Per element: the rms of a Gaussian input of variance ``var_V`` at the converter's code,
+    with the comparator noise added. Unit: LSB."""
+    return np.sqrt(np.asarray(var_V) * slope * slope + conv.comparator_noise_lsb ** 2)
+
+
+def _on_series(conv: Converter, x: NDArray[np.float64], u: NDArray[np.float64],
+               reach: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Elements the series answers: the ideal transitions (no table), white noise of at least
+    :data:`SERIES_MIN_WHITE_LSB` at every converter, and ``x ± reach`` inside the range's
+    interior transitions (beyond 10 rms a Gaussian's mass is 1.5e-23: clipping is invisible)."""
+    top = 2.0 ** conv.bits - 1.0
+    if conv.levels is not None or u.size == 0 or u.min() < SERIES_MIN_WHITE_LSB:
+        return np.zeros(x.shape, bool)
+    return (x - reach >= 0.5) & (x + reach <= top - 0.5)
+
+
+def _by_series(conv: Converter, series: NDArray[np.bool_], by_series, by_quadrature
+               ) -> NDArray[np.float64]:
+    """An array of ``series.shape``: ``by_series()`` on the ``series`` elements,
+    ``by_quadrature(sub, rest)`` on the others (``sub`` their converters, in a row)."""
+    out = np.empty(series.shape)
+    if series.any():
+        out[series] = by_series()
+    rest = ~series
+    if rest.any():
+        n_pix = conv.n_pixels
+        pixel = np.broadcast_to(np.arange(n_pix).reshape(conv.shape), series.shape)[rest]
+        out[rest] = by_quadrature(conv.at(pixel), rest)
+    return out
+
+
+def _harmonics(u_min: float) -> NDArray[np.float64]:
+    """``k = 1 … K`` as a column, ``K`` the last harmonic with ``2π²u²k² < 44``: every term
+    dropped carries ``γ_k(u) = e^{−2π²u²k²} < 1e-19`` (``u`` the smallest white rms)."""
+    n = int(math.ceil(math.sqrt(44.0 / (2.0 * math.pi**2)) / u_min))
+    return np.arange(1.0, n + 1.0)[:, None]
+
+
+def _damping(rms: NDArray[np.float64], k: ArrayLike) -> NDArray[np.float64]:
+    """``E[e^{2πik·Z·rms}] = e^{−2π²rms²k²}``, ``Z ~ N(0, 1)``."""
+    return np.exp(-2.0 * math.pi**2 * rms * rms * np.square(k))
+
+
+def _series_mean_of_var(x: NDArray[np.float64], sigma: NDArray[np.float64],
+                        u: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``E_y[v(y)]``, ``y ~ N(x, σ²)`` in LSB, on the ideal transitions (``Q = round``), white
+    noise of rms ``u``; 1-D arrays of elements.
+
+    With ``e(x) = x − round(x) = Σ b_k sin 2πkx``, ``b_k = (−1)^{k+1}/(πk)`` (the sawtooth) and
+    ``e² = 1/12 + Σ (−1)^k cos 2πkx / (π²k²)``, the code's variance at input ``y`` is
+    ``v(y) = Var(uZ − e(y + uZ)) = u² + 1/12 + Σ A_k γ_k cos 2πky − (Σ b_k γ_k sin 2πky)²``,
+    ``A_k = (−1)^k (1/(π²k²) + 4u²)`` (Stein's lemma for ``E[Z e]``), ``γ_k = e^{−2π²u²k²}``; then
+    ``E_y[cos 2πmy] = cos(2πmx)·e^{−2π²σ²m²}``. Exact but for the dropped harmonics
+    (:func:`_harmonics`: < 1e-19 each) and rounding: about 1e-15 LSB² (u ≥ 1 LSB: 2 harmonics).
+    """
+    k = _harmonics(float(u.min()))
+    sign = np.where(k % 2 == 0, 1.0, -1.0)  # (−1)^k
+    gamma = _damping(u, k)
+    b_gamma = -sign / (math.pi * k) * gamma  # b_k γ_k
+    linear = sign * (1.0 / (math.pi * k) ** 2 + 4.0 * u * u) * gamma
+    out = u * u + 1.0 / 12.0 + np.sum(linear * np.cos(2 * math.pi * k * x) * _damping(sigma, k),
+                                      axis=0)
+    # E_y[(Σ_j c_j sin 2πjy)²] = ½ Σ_j Σ_k c_j c_k (E cos 2π(j−k)y − E cos 2π(j+k)y)
+    for j in range(k.shape[0]):
+        d, s_ = (j + 1) - k, (j + 1) + k
+        out -= 0.5 * np.sum(b_gamma[j] * b_gamma * (
+            np.cos(2 * math.pi * d * x) * _damping(sigma, d)
+            - np.cos(2 * math.pi * s_ * x) * _damping(sigma, s_)), axis=0)
+    return out
+
+
+def _series_ktc_cov(a: NDArray[np.float64], b: NDArray[np.float64], kappa: NDArray[np.float64],
+                    u_s: NDArray[np.float64], u_r: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``Cov_y(g(y), f(y))``, ``y ~ N(0, κ²)`` shared, ``g(y) = E[round(a + y + u_s Z)]``,
+    ``f(y) = E[round(b + y + u_r Z')]`` (LSB; 1-D arrays of elements).
+
+    ``g(y) = a + y − Σ β_j sin 2πj(a + y)``, ``β_j = b_j γ_j(u_s)`` (and ``f`` with ``b``,
+    ``u_r``); ``E[y sin 2πk(c + y)] = 2πkκ² e^{−2π²κ²k²} cos 2πkc`` and
+    ``E[sin(α + 2πjy) sin(β + 2πky)] = ½(cos(α − β)·D_{j−k} − cos(α + β)·D_{j+k})``,
+    ``D_m = e^{−2π²κ²m²}``. Exact to the same order as :func:`_series_mean_of_var`.
+    """
+    k = _harmonics(float(u_r.min()))  # u_s ≥ u_r: the signal side's terms fall faster
+    sign = np.where(k % 2 == 0, 1.0, -1.0)
+    beta_s = -sign / (math.pi * k) * _damping(u_s, k)
+    beta_r = -sign / (math.pi * k) * _damping(u_r, k)
+    slope = 2 * math.pi * k * kappa * kappa * _damping(kappa, k)  # E[y sin 2πk(c + y)] / cos
+    out = kappa * kappa - np.sum((beta_r * np.cos(2 * math.pi * k * b)
+                                  + beta_s * np.cos(2 * math.pi * k * a)) * slope, axis=0)
+    sin_a = np.sin(2 * math.pi * k * a) * _damping(kappa, k)
+    sin_b = np.sin(2 * math.pi * k * b) * _damping(kappa, k)
+    for j in range(k.shape[0]):
+        jj = j + 1.0
+        d, s_ = jj - k, jj + k
+        joint = 0.5 * (np.cos(2 * math.pi * (jj * a - k * b)) * _damping(kappa, d)
+                       - np.cos(2 * math.pi * (jj * a + k * b)) * _damping(kappa, s_))
+        out += np.sum(beta_s[j] * beta_r * (joint - sin_a[j] * sin_b), axis=0)
+    return out
 
 
 __all__ = ["GH_ABS_TOL_LSB2", "GH_NODES", "GH_REL_TOL", "cms_moments", "mean_of_var", "node_count"]
