@@ -89,12 +89,15 @@ def test_closed_form_is_simpy_where_it_applies(sch, frame_steps):
     except ValueError:  # SimPy refuses the schedule (a negative wait): so must the closed form
         assert steady_run(sch, frame_steps) is None
         return
-    event("closed form" if _assert_same(sch, frame_steps) else "SimPy")
+    took = _assert_same(sch, frame_steps)
+    longest = max(sch.job_ns(sch.dark_frames, False), sch.job_ns(sch.block_frames, True))
+    event("SimPy" if not took else "closed form, a job past the idle time"
+          if longest > sch.frame_period_ns - sch.busy_ns else "closed form")
 
 
-#: Frame period 40 ns, reset 3, M = 2 conversions of 1, t_int 26: busy 33, idle 7; the next
-#: action after a write is the reset 7 ns later (with frame steps) or the signal conversions 38 ns
-#: later (without). Dark block and jobs of 1 frame, memory of 4 frames. A job of the dark block
+#: Frame period 40 ns, reset 3, M = 2 conversions of 1, t_int 26: busy 33, idle 7; after a write
+#: the sensor acts 7, 10, 12 and 38 ns later (with frame steps: reset, reset conversions,
+#: integration, signal conversions) or 38 ns later (without), and writes again 40 ns later. Dark block and jobs of 1 frame, memory of 4 frames. A job of the dark block
 #: takes per_frame − per_output, the others per_frame.
 TABLE = [
     # frame_steps, per_frame, per_output, steady
@@ -102,9 +105,14 @@ TABLE = [
     (False, 1, 0, True),
     (True, 5, 3, True),     # output cycles charged to the jobs with an output
     (True, 7, 0, False),    # tie: a job ends on the next reset (SimPy orders it)
+    (True, 10, 0, False),   # tie: on the next reset conversions
+    (True, 12, 0, False),   # tie: on the next integration start
+    (True, 38, 0, False),   # tie: on the next signal conversions
     (False, 38, 0, False),  # tie: a job ends when the next signal conversions start
-    (True, 30, 0, False),   # ends after the next reset: the trace interleaves, SimPy's
-    (False, 30, 0, True),   # … which, without frame steps, is still before the next write
+    (True, 30, 0, True),    # ends after the next reset: the trace interleaves, sorted by time
+    (False, 30, 0, True),   # … and, without frame steps, still before the next write
+    (True, 39, 0, True),    # ends 1 ns before the next write
+    (True, 40, 0, False),   # ties with the next write
     (False, 60, 0, False),  # slower than the frames: the memory fills, frames drop
     (True, 60, 0, False),
 ]
