@@ -8,10 +8,12 @@
 #    packages: Verilator 5.006 and Icarus Verilog 11.0 (rtl_ref refuses Verilator < 5.0 and
 #    Icarus < 11.0). Set CHIPTWIN_NO_APT=1 to skip this step.
 # 2. python -m pip install -e ".[test]"
-# 3. python -m pytest -n auto --durations=15 "$@"   (pytest-xdist: one worker per core; the
-#    slowest 15 tests listed at the end; pass -n 0 to run in one process, e.g. with --pdb).
-#    --dist loadscope (a module's fixtures computed once) measured no better: cold cache 6 min
-#    18 s against 6 min 0 s, warm 4 min 21 s against 4 min 30 s (2 cores, one run each).
+# 3. python -m pytest -n auto --dist loadgroup --durations=15 "$@"   (pytest-xdist: one worker
+#    per core; the modules of tests/conftest.py's XDIST_GROUPS share costly fixtures and each
+#    group runs on one worker, every other test goes where a worker is free; the slowest 15
+#    tests listed at the end; pass -n 0 to run in one process, e.g. with --pdb).
+#    --dist loadscope (every module on one worker) measured no better than plain load: cold
+#    cache 6 min 18 s against 6 min 0 s, warm 4 min 21 s against 4 min 30 s (one run each).
 #
 # Without the simulators (and no way to install them) the RTL tests skip with a message saying
 # how to install them; with CI=true they fail instead.
@@ -62,4 +64,4 @@ if command -v iverilog >/dev/null 2>&1; then
 fi
 
 "$PY" -m pip install -q -e ".[test]"
-exec "$PY" -m pytest -n auto --durations=15 "$@"
+exec "$PY" -m pytest -n auto --dist loadgroup --durations=15 "$@"

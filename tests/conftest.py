@@ -59,3 +59,27 @@ REDUCED = {
     "pyro_paper_yield_fast": ["assay.n_flows=8", "assay.flow_period_s=4.0",
                               "run.duration_s=34.0"],
 }
+
+
+#: Modules whose costly module- or session-scoped fixtures serve several tests: under
+#: ``pytest -n auto --dist loadgroup`` (scripts/test.sh) each group runs on one worker, so each
+#: fixture is computed once instead of once per worker that gets one of its tests.
+XDIST_GROUPS = {
+    "tests/validation/test_paper_yield.py": "paper_yield",  # two whole runs (7 s and 2 s)
+    "tests/validation/test_noise_monte_carlo.py": "noise_monte_carlo",  # 1.5 s of seeds
+    # the session's `characterized` chips (tests/characterize/conftest.py)
+    "tests/characterize/test_cli.py": "characterized",
+    "tests/characterize/test_emva1288.py": "characterized",
+    "tests/characterize/test_roundtrip.py": "characterized",
+    "tests/characterize/test_twin.py": "characterized",
+    # the session's `frame_memory_result` study (tests/study/conftest.py)
+    "tests/study/test_bundled.py": "frame_memory_study",
+    "tests/study/test_outputs.py": "frame_memory_study",
+}
+
+
+def pytest_collection_modifyitems(config, items) -> None:
+    for item in items:
+        group = XDIST_GROUPS.get(Path(str(item.fspath)).relative_to(ROOT).as_posix())
+        if group:
+            item.add_marker(pytest.mark.xdist_group(group))
