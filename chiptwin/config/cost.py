@@ -10,7 +10,10 @@ cost per unit (:func:`wall_estimate`, term by term):
 * **arrival times** (``events`` level): per site pixel and window, the cells of the rate and, up
   to :data:`EVENTS_DRAWN_MAX` expected electrons a window, one draw per arrival (above it the
   count and the full-well time are drawn from order statistics, at no cost per photon);
-* **solver** (``cascade`` kinetics): the stiff ODE per flow or per assay window.
+* **solver** (``cascade`` kinetics): the stiff ODE per flow or per assay window;
+* **the converter as built** (any ``[chip.adc]`` effect): its expected moments per pixel-frame,
+  by the sawtooth's series, or by Gauss–Hermite over exact table sums where the series does not
+  apply (:mod:`chiptwin.pixel.expected_adc`), whose cost grows with the white noise's window.
 
 A run estimated past ``[run] max_wall_s`` is refused (exit 2) naming the estimate, its largest
 term and the key that raises the limit; ``save_frames`` past the free disk of the output folder
@@ -71,6 +74,16 @@ EVENTS_DRAWN_MAX: int = 20_000
 #: warm process, 1.1–1.4 s as a new process's first run).
 CASCADE_FIT_S: float = 0.8
 CASCADE_WINDOW_S: float = 0.03
+#: Per pixel-frame of the converter-as-built's expected moments by the sawtooth's series (the
+#: signal side's E_y[v] and the true-CDS covariance). Unit: s (pyro_1fmol with a 1-LSB
+#: comparator at the expected level: 0.27 s over 194,560 pixel-frames).
+AS_BUILT_SERIES_S: float = 1.4e-6
+#: Per pixel-frame, pass and node of the same moments by Gauss–Hermite (a transition table, a
+#: dark level within reach of code 0, white noise below 1/64 LSB), and per code summed there.
+#: Unit: s. Fitted to pyro_1fmol (194,560 pixel-frames, 2 passes) by the quadrature: with a
+#: 1-LSB comparator 19.4 s (48 nodes, 25 codes), with DNL 0.2 LSB rms 31 s (192 nodes, 7 codes).
+AS_BUILT_NODE_S: float = 1.7e-7
+AS_BUILT_CODE_S: float = 3.5e-8
 #: The factor within which the estimate is held of measured wall time (tests/config/test_cost.py).
 ESTIMATE_FACTOR: float = 10.0
 #: Per worker of a study's process pool: spawn, import numpy/numba/chiptwin, load the kernels.
@@ -135,6 +148,8 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
             f"arrival times a window × {ARRIVAL_S:g} s",
             frames * (sites * EVENTS_WINDOW_S + drawn * ARRIVAL_S),
             f"run.fidelity.photons, sites.at_pixels, {length}"))
+    if c.adc.as_built_keys:
+        terms.append(_as_built_term(s, frames * c.n_pixels))
     if kinetics == "cascade":
         w = _windows(s)
         terms.append(CostTerm(f"the cascade's yield fit, {CASCADE_FIT_S:g} s, and {w} windows of "
@@ -142,6 +157,35 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
                               CASCADE_FIT_S + w * CASCADE_WINDOW_S,
                               "run.fidelity.kinetics, assay.n_flows"))
     return terms
+
+
+def _as_built_term(s: Scenario, pixel_frames: int) -> CostTerm:
+    """The converter-as-built's expected moments: by the series, or by Gauss–Hermite (its nodes
+    by the kTC's ratio to the white rms ``u``; up to 4× more with a wide shot noise) over a
+    window of ±10 ``u`` when the converter has a transition table, its white noise is below the
+    series' floor, or the dark level sits within ``10 (u + kTC)`` of code 0 (every dark
+    pixel-frame then leaves the series: ccd_two_wells with a 128-LSB comparator, its pedestal at
+    code 1,311)."""
+    from chiptwin.pixel.expected_adc import SERIES_MIN_WHITE_LSB, node_count
+    from chiptwin.pixel.sensor import conversion_gain_uV_per_e, ktc_noise_e
+
+    a, p = s.chip.adc, s.chip.pixel
+    per_lsb = (1.0 + a.gain_error) / ((a.v_max_V - a.v_min_V) / 2**a.bits)  # LSB per volt
+    cg_V = conversion_gain_uV_per_e(p.capacitance_fF) * 1e-6
+    u = math.hypot(p.read_noise_e * cg_V * per_lsb, a.comparator_noise_total_lsb)
+    ktc = ktc_noise_e(p.capacitance_fF, p.temperature_C + 273.15) * cg_V * per_lsb
+    dark = (p.pedestal_V - a.v_min_V) * per_lsb + a.offset_error_lsb
+    table = bool(a.inl_max_lsb or a.dnl_rms_lsb or a.inl_shape == "table")
+    keys = "chip.adc (" + ", ".join(a.as_built_keys) + "), chip.pixel.read_noise_e"
+    if table or u < SERIES_MIN_WHITE_LSB or dark - 10.0 * (u + ktc) < 0.5:
+        codes, nodes = 2 * math.ceil(10.0 * u) + 3, node_count(ktc, u)
+        each = AS_BUILT_NODE_S + codes * AS_BUILT_CODE_S
+        return CostTerm(f"{pixel_frames:.3g} pixel-frames of the converter as built by "
+                        f"Gauss–Hermite: 2 passes × {nodes} nodes × ({AS_BUILT_NODE_S:g} s + "
+                        f"{codes} codes × {AS_BUILT_CODE_S:g} s)",
+                        pixel_frames * 2 * nodes * each, keys)
+    return CostTerm(f"{pixel_frames:.3g} pixel-frames of the converter as built by the series × "
+                    f"{AS_BUILT_SERIES_S:g} s", pixel_frames * AS_BUILT_SERIES_S, keys)
 
 
 def _steady(s: Scenario) -> bool:

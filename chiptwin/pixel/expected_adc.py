@@ -107,9 +107,9 @@ def mean_of_var(conv: Converter, mean_V: NDArray[np.float64], shared_sd_V: NDArr
     On the ideal transitions inside the range, the sawtooth's series (:func:`_series_mean_of_var`);
     elsewhere (a transition table, the range's ends, white noise below :data:`SERIES_MIN_WHITE_LSB`)
     the Gauss–Hermite quadrature."""
-    mean_V, shared_sd_V = np.broadcast_arrays(np.asarray(mean_V, float),
-                                              np.asarray(shared_sd_V, float))
     x, slope = conv.input_codes(mean_V)
+    mean_V, shared_sd_V = (np.broadcast_to(np.asarray(a, float), x.shape)
+                           for a in (mean_V, shared_sd_V))
     sigma, u = shared_sd_V * slope, _white_lsb(conv, white_var_V, slope)
     series = _on_series(conv, x, u, 10.0 * (sigma + u))
     return _by_series(conv, series, lambda: _series_mean_of_var(x[series], sigma[series],
@@ -186,8 +186,7 @@ def _shared_ktc_cov(conv: Converter, s_mu: NDArray[np.float64], shot_V2: NDArray
     u_s, u_r = _white_lsb(conv, shot_V2 + white, slope), _white_lsb(conv, white, slope)
     series = (_on_series(conv, a, u_r, 10.0 * (kappa + u_s))
               & _on_series(conv, b, u_r, 10.0 * (kappa + u_r)))
-    shape = a.shape
-    ped_b, shot_b = np.broadcast_to(ped, shape), np.broadcast_to(shot_V2, shape)
+    s_mu, ped_b, shot_b = (np.broadcast_to(v, a.shape) for v in (s_mu, ped, shot_V2))
     return _by_series(
         conv, series,
         lambda: _series_ktc_cov(a[series], b[series], kappa[series], u_s[series], u_r[series]),

@@ -82,6 +82,38 @@ def test_validate_prints_the_estimate(capsys):
     assert "estimated wall time" in out and "run.max_wall_s" in out
 
 
+def test_the_converter_as_built_costs_by_where_its_moments_come_from():
+    """The converter as built's expected moments: the series costs little a pixel-frame; a
+    transition table, or a dark level within 10 (white + kTC) rms of code 0, sends them to
+    Gauss–Hermite, whose window grows with the white noise. ccd_two_wells's pedestal sits at
+    code 1,311: a 64-LSB comparator reaches 807 codes (the series; the run took 2.2 s), a
+    128-LSB one 1,447 (the quadrature over 2,565 codes a node; the run did not end in 100 s)."""
+    def term(*sets):
+        return next(t for t in cost.wall_estimate(scene(*sets)) if "as built" in t.what)
+
+    assert not any("as built" in t.what for t in cost.wall_estimate(scene("pyro_1fmol")))
+    series = term("ccd_two_wells", "chip.adc.comparator_noise_lsb=64")
+    wide = term("ccd_two_wells", "chip.adc.comparator_noise_lsb=128")
+    assert "by the series" in series.what and "Gauss–Hermite" in wide.what
+    assert wide.seconds > 1000 * series.seconds and "comparator_noise_lsb" in wide.keys
+    table = term("pyro_1fmol", "chip.adc.dnl_rms_lsb=0.2")
+    assert "Gauss–Hermite" in table.what and "192 nodes" in table.what
+
+
+def test_the_as_built_estimate_is_within_its_factor():
+    """With the series (pyro_1fmol reduced, a 1-LSB comparator). The Gauss–Hermite constants were
+    fitted to two whole runs of ≈ 20 and 30 s (config/cost.py), too long to repeat here."""
+    from chiptwin.fidelity import run
+
+    sets = ["chip.adc.comparator_noise_uV=122.07"]
+    s = scene("pyro_1fmol", *sets)
+    run(s)
+    measured = run(s).summary["wall_time_s"]
+    estimate = cost.wall_seconds(s)
+    assert measured / cost.ESTIMATE_FACTOR <= estimate <= measured * cost.ESTIMATE_FACTOR, (
+        f"{sets}: estimate {estimate:.3g} s, measured {measured:.3g} s")
+
+
 @pytest.mark.parametrize("name", ["pyro_1fmol", "crosstalk_microarray"])
 def test_the_estimate_is_within_its_factor_of_measured_wall_time(name):
     from chiptwin.fidelity import run

@@ -32,7 +32,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from chiptwin.cli import main
-from chiptwin.config import ScenarioError, load_scenario, scenario_from_dict
+from chiptwin.config import ScenarioError, cost, load_scenario, scenario_from_dict
 from tests.config import _mutations as M
 from tests.conftest import REDUCED
 
@@ -47,9 +47,13 @@ SWEEP_SITES = 64
 #: A valid mutation is run when its shortened run is at most this big (the test's time budget):
 #: every scenario but pyro_array_256 fits, pyro_paper_yield_fast with one 1 s block per flow
 #: (1,280 frames) and ccd_two_wells's 512 pixels with 336 frames. A run's cost is mostly fixed
-#: (plots, the optics summary); what grows with its pixel-frames is the converter as built at
-#: the expected level (exact code moments, ≈ 0.2 ms a pixel-frame: ≤ 40 s here).
+#: (plots, the optics summary); what grows with its pixel-frames is the converter as built
+#: (its expected moments: ≈ 1.4 µs a pixel-frame by the series, up to ms by Gauss–Hermite with
+#: a wide white noise near code 0), which the wall-time estimate holds under RUN_WALL_MAX_S.
 RUN_FRAMES, RUN_PIXEL_FRAMES = 1300, 180_000
+#: A valid mutation estimated past this (chiptwin.config.cost) is validated, not run: ccd_two_wells
+#: with a comparator of 256 LSB (its range's top) is estimated at ≈ 50 min. Unit: s.
+RUN_WALL_MAX_S = 30.0
 #: Faceplates the run test runs: the imaging range (3 … 25 µm fibres, the schema's doc). Beyond
 #: half the diode a fibre is refused (config.budget.FIBER_PER_DIODE_MAX: the quadrature of its
 #: blur does not converge in minutes); between 25 µm and that, each psf coupling of the run and
@@ -172,12 +176,13 @@ def test_mutated_scenario_validates_or_exits_2_with_one_line(tmp_path_factory, c
 
 def _affordable(path: Path) -> bool:
     """Small enough to run here: not the RTL (its own tests build it), few frames and pixels,
-    no faceplate beyond the imaging range."""
+    estimated within RUN_WALL_MAX_S, no faceplate beyond the imaging range."""
     s = load_scenario(path)
     frames = int(s.run.duration_s / s.chip.timing.frame_period_s)
     plate = s.optics.faceplate
     return (s.dsp_level != "rtl" and frames <= RUN_FRAMES
             and frames * s.chip.n_pixels <= RUN_PIXEL_FRAMES
+            and cost.wall_seconds(s) <= RUN_WALL_MAX_S
             and not (plate.na > 0 and plate.fiber_pitch_um > RUN_FIBER_PITCH_MAX_UM))
 
 
