@@ -24,6 +24,9 @@ C_LIGHT: float = 299_792_458.0
 T_ROOM_K: float = 300.0
 """Room temperature used by REFERENCE §4 for kTC noise. Unit: K."""
 
+ZERO_C_K: float = 273.15
+"""0 °C in kelvin (the scenario's temperatures are in °C). Unit: K."""
+
 TICKS_PER_S: int = 1_000_000_000
 """The chip model's clock: one tick is one nanosecond."""
 

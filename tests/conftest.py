@@ -80,6 +80,6 @@ XDIST_GROUPS = {
 
 def pytest_collection_modifyitems(config, items) -> None:
     for item in items:
-        group = XDIST_GROUPS.get(Path(str(item.fspath)).relative_to(ROOT).as_posix())
+        group = XDIST_GROUPS.get(item.path.relative_to(ROOT).as_posix())
         if group:
             item.add_marker(pytest.mark.xdist_group(group))

@@ -41,7 +41,7 @@ from pathlib import Path
 from chiptwin.config.budget import max_coupling, max_site_photons, n_sites
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
-from chiptwin.constants import s_to_ticks
+from chiptwin.constants import ZERO_C_K, s_to_ticks
 
 #: Per run: scene preparation, coupling, outputs gathered (not the interpreter's start). Unit: s.
 RUN_S: float = 0.02
@@ -166,6 +166,7 @@ def _as_built_term(s: Scenario, pixel_frames: int) -> CostTerm:
     series' floor, or the dark level sits within ``10 (u + kTC)`` of code 0 (every dark
     pixel-frame then leaves the series: ccd_two_wells with a 128-LSB comparator, its pedestal at
     code 1,311)."""
+    from chiptwin.pixel.converter import AsBuilt
     from chiptwin.pixel.expected_adc import SERIES_MIN_WHITE_LSB, node_count
     from chiptwin.pixel.sensor import conversion_gain_uV_per_e, ktc_noise_e
 
@@ -173,9 +174,9 @@ def _as_built_term(s: Scenario, pixel_frames: int) -> CostTerm:
     per_lsb = (1.0 + a.gain_error) / ((a.v_max_V - a.v_min_V) / 2**a.bits)  # LSB per volt
     cg_V = conversion_gain_uV_per_e(p.capacitance_fF) * 1e-6
     u = math.hypot(p.read_noise_e * cg_V * per_lsb, a.comparator_noise_total_lsb)
-    ktc = ktc_noise_e(p.capacitance_fF, p.temperature_C + 273.15) * cg_V * per_lsb
+    ktc = ktc_noise_e(p.capacitance_fF, p.temperature_C + ZERO_C_K) * cg_V * per_lsb
     dark = (p.pedestal_V - a.v_min_V) * per_lsb + a.offset_error_lsb
-    table = bool(a.inl_max_lsb or a.dnl_rms_lsb or a.inl_shape == "table")
+    table = AsBuilt.from_keys(a).shaped
     keys = "chip.adc (" + ", ".join(a.as_built_keys) + "), chip.pixel.read_noise_e"
     if table or u < SERIES_MIN_WHITE_LSB or dark - 10.0 * (u + ktc) < 0.5:
         codes, nodes = 2 * math.ceil(10.0 * u) + 3, node_count(ktc, u)

@@ -47,7 +47,7 @@ from typing import Any
 
 from chiptwin.config.fields import ScenarioError, allowed_text
 from chiptwin.config.schema import Adc, Pixel, Scenario
-from chiptwin.constants import K_B, Q_E
+from chiptwin.constants import K_B, Q_E, ZERO_C_K
 
 #: Figures a datasheet must give.
 REQUIRED = ("quantum_efficiency", "system_gain", "temporal_dark_noise", "saturation_capacity")
@@ -55,7 +55,6 @@ REQUIRED = ("quantum_efficiency", "system_gain", "temporal_dark_noise", "saturat
 #: Relative disagreement above which two figures of one datasheet contradict each other.
 CONSISTENCY_TOL: float = 0.01
 
-_ZERO_C_K = 273.15
 
 
 def _fields(cls: type) -> dict[str, dataclasses.Field]:
@@ -239,7 +238,7 @@ def _read_noise(doc: _Doc, s: Scenario, cap_fF: float) -> float:
     var = sigma_d**2
     if not s.chip.pixel.true_cds:
         temp_k = (doc.camera_value("temperature_C", lo=-273.15) or s.chip.pixel.temperature_C)
-        ktc2 = K_B * (temp_k + _ZERO_C_K) * cap_fF * 1e-15 / Q_E**2
+        ktc2 = K_B * (temp_k + ZERO_C_K) * cap_fF * 1e-15 / Q_E**2
         var -= 2.0 * ktc2
         if var < 0:
             doc.fail("parameters.temporal_dark_noise.value", sigma_d,

@@ -139,6 +139,12 @@ class AsBuilt:
             (self.comparator_noise_lsb, self.inl_max_lsb, self.dnl_rms_lsb,
              self.offset_sigma_lsb, self.gain_sigma))
 
+    @property
+    def shaped(self) -> bool:
+        """The ramp's levels are not the ideal transitions (INL, DNL or a measured table): the
+        converters carry a transition table."""
+        return self.inl_max_lsb != 0.0 or self.dnl_rms_lsb > 0.0 or self.inl_shape == "table"
+
     @classmethod
     def from_keys(cls, section: object, base_dir: str | Path | None = None) -> AsBuilt:
         """The effects read by name from any object holding the ``[chip.adc]`` keys (the
@@ -632,8 +638,7 @@ def build_converter(
     if not shp or min(shp) < 1:
         raise ValueError(f"shape = {shape!r}: must be positive sizes")
     spec, n = as_built, int(np.prod(shp))
-    table = spec.inl_shape == "table"
-    shaped = spec.inl_max_lsb != 0.0 or spec.dnl_rms_lsb > 0.0 or table
+    table, shaped = spec.inl_shape == "table", spec.shaped
     rows, n_ramps = _ramp_index(spec.ramp, shp)
     n_tables = n_ramps if spec.dnl_rms_lsb > 0.0 and 2**n_bits > 2 else 1
     if shaped:

@@ -83,19 +83,12 @@ def node_count(shared_sd: ArrayLike, white_sd: ArrayLike) -> int:
     return next(n for top, n in GH_NODES if ratio <= top)
 
 
-def _white_sd_lsb(conv: Converter, white_var_V: float) -> float:
-    """Smallest white rms of a sample at any converter (read noise at the smallest gain, plus
-    comparator noise). Unit: LSB."""
-    gains = conv.pixel_gain if conv.pixel_gain is not None else np.ones(1)
-    read = math.sqrt(white_var_V) / conv.lsb_V * (1.0 + conv.gain_error) * float(gains.min())
-    return math.hypot(read, conv.comparator_noise_lsb)
-
-
 def _nodes_for(conv: Converter, shared_sd_V: ArrayLike, white_var_V: float) -> tuple:
-    sd_lsb = np.asarray(shared_sd_V) / conv.lsb_V * (1.0 + conv.gain_error)
-    if conv.pixel_gain is not None:
-        sd_lsb = sd_lsb * float(conv.pixel_gain.max())
-    return _gh(node_count(sd_lsb, _white_sd_lsb(conv, white_var_V)))
+    """:data:`GH_NODES` for the widest shared rms against the narrowest white rms, both in LSB of
+    any converter (read noise at the smallest gain, plus the comparator noise)."""
+    slope = conv.input_codes(conv.v_min_V)[1]  # LSB per volt, per converter
+    sd_lsb = np.asarray(shared_sd_V) * float(slope.max())
+    return _gh(node_count(sd_lsb, float(_white_lsb(conv, white_var_V, slope).min())))
 
 
 def mean_of_var(conv: Converter, mean_V: NDArray[np.float64], shared_sd_V: NDArray[np.float64],

@@ -18,12 +18,12 @@ from scipy import sparse
 from chiptwin import kinetics, limits, optics, photons, pixel
 from chiptwin.config import Scenario
 from chiptwin.config.budget import amount_key
+from chiptwin.constants import ZERO_C_K
 from chiptwin.kinetics import pyro
 from chiptwin.kinetics.light_source import LightSource, Replicated
 from chiptwin.kinetics.pulse_train import PulseTrain
 
 FMOL, AMOL = 1e-15, 1e-18
-ZERO_C_K = 273.15
 
 
 def stage_rng(seed: int, stage: str) -> np.random.Generator:

@@ -7,9 +7,12 @@ the window-count z-scores had standard deviation 0.9–1.13, as they should.)
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from scipy import stats
+from scipy.optimize import brentq
 
 from chiptwin.kinetics import PulseTrain
 from chiptwin.kinetics.cascade import cascade_pyrosequencing
@@ -24,6 +27,7 @@ from chiptwin.photons import (
     saturation_time,
     saturation_time_from_rate,
 )
+from chiptwin.twin.stages import EventPixels
 
 SOURCE = PulseTrain(  # a fast flash, a slow decay, a late onset and a constant glow
     site=[0, 0, 1, 1], onset_s=[0.0, 2.5, 0.0, 1.0], amplitude_per_s=[4000.0, 9000.0, 50.0, 400.0],
@@ -230,12 +234,6 @@ def test_event_pixels_fill_time_is_the_root_of_the_exact_integral():
     the same exact Λ, to 1e-12 s: targets from 1e-9 of the window's electrons to all of them,
     a window that opens before any light (rate 0 there: the bisection fallback) and one
     inside a decaying flash (Newton's case); Λ crosses the target at the returned time."""
-    from types import SimpleNamespace
-
-    from scipy.optimize import brentq
-
-    from chiptwin.twin.stages import EventPixels
-
     late = PulseTrain(site=[0, 1, 1], onset_s=[1.0, 1.5, 2.2], amplitude_per_s=[5000.0, 800.0,
                       3e4], decay_per_s=[0.5, 3.0, 40.0], n_sites=2)
     sensor = SimpleNamespace(qe=0.6, gain_map=np.array([1.0, 0.9]), dark_e_per_s=np.zeros(2),
