@@ -13,6 +13,7 @@ import numpy as np
 
 from chiptwin.characterize import evaluate as ev
 from chiptwin.characterize.datasheet import Datasheet
+from chiptwin.twin.figures import save_figure as _save
 
 
 def make_plots(d: Datasheet, folder: Path) -> list[tuple[str, str]]:
@@ -22,15 +23,6 @@ def make_plots(d: Datasheet, folder: Path) -> list[tuple[str, str]]:
     matplotlib.use("Agg")
     return [draw(d, folder) for draw in (photon_transfer, snr, linearity, dark_signal,
                                          histograms, dark_temperature)]
-
-
-def _save(fig, folder: Path, name: str, caption: str) -> tuple[str, str]:
-    import matplotlib.pyplot as plt
-
-    fig.tight_layout()
-    fig.savefig(folder / name, dpi=100)
-    plt.close(fig)
-    return name, caption
 
 
 def _value(d: Datasheet, key: str) -> float:

@@ -52,6 +52,7 @@ from chiptwin.twin.levels import (
     reference_levels,
     with_levels,
 )
+from chiptwin.twin.figures import save_figure
 from chiptwin.twin.runner import chip_sensor
 
 #: Stages whose levels all draw the same random numbers for the same seed (the photon levels
@@ -311,6 +312,4 @@ def _plot(ladder: dict[str, Any], figure: str, path) -> None:
            ylabel=f"{figure} against the reference", title=f"Speed against error: "
            f"{ladder['scenario']}")
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_figure(fig, path.parent, path.name)

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from chiptwin.config.outputs import check_out_dir, replacing
+from chiptwin.twin.figures import save_figure as _save
 from chiptwin.twin.programs import program_plots
 
 if TYPE_CHECKING:
@@ -192,15 +193,6 @@ def _saturation_plot(sat: dict[str, Any], folder: Path) -> tuple[str, str]:
     ax2.set(xlabel="flow", ylabel="frames at full well (share)", ylim=(0, 1.05))
     return _save(fig, folder, "saturation.png",
                  "When each site's well filled in each flow, and the share of frames that filled")
-
-
-def _save(fig, folder: Path, name: str, caption: str) -> tuple[str, str]:
-    fig.tight_layout()
-    fig.savefig(folder / name, dpi=100)
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
-    return name, caption
 
 
 def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> str:

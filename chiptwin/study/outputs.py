@@ -18,6 +18,7 @@ import numpy as np
 
 from chiptwin.study.engine import StudyResult
 from chiptwin.study.metrics import CATALOGUE
+from chiptwin.twin.figures import save_figure as _save
 
 
 def write_atomic(path: Path, text: str) -> None:
@@ -223,18 +224,6 @@ def _status_grid(points: list[dict], budget: list[str], xs: list, ys: list,
 def _num(v) -> float:
     return {"inf": np.inf, "-inf": -np.inf, None: np.nan}.get(v, v) if not isinstance(
         v, int | float) else float(v)
-
-
-def _save(fig, folder: Path, name: str, caption: str, tight: bool = True) -> tuple[str, str]:
-    import matplotlib.pyplot as plt
-
-    if tight:
-        fig.tight_layout()
-    tmp = folder / f".{name}.tmp.png"
-    fig.savefig(tmp, dpi=100)
-    os.replace(tmp, folder / name)
-    plt.close(fig)
-    return name, caption
 
 
 def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> str:

@@ -51,6 +51,7 @@ from chiptwin.dsp.program_pipeline import (
 from chiptwin.dsp.program_pipeline import kinetics_plan as plan_kinetics
 from chiptwin.dsp.reference import wiener_matrix
 from chiptwin.twin import stages
+from chiptwin.twin.figures import save_figure
 
 if TYPE_CHECKING:
     from chiptwin.config import Scenario
@@ -387,8 +388,5 @@ def program_plots(result: Any, folder: Any) -> list[tuple[str, str]]:
         ax.set(ylabel="e⁻ (sum of outputs)", title=f"{title}: valley/peak {shown}")
         ax.legend(fontsize=7)
     axes[1].set_xlabel("column")
-    fig.tight_layout()
-    fig.savefig(folder / "column_profile.png", dpi=100)
-    plt.close(fig)
-    return [("column_profile.png", "Column profile of the sites before and after the DSP "
-             "program (dotted: site columns)")]
+    return [save_figure(fig, folder, "column_profile.png", "Column profile of the sites before "
+                        "and after the DSP program (dotted: site columns)")]

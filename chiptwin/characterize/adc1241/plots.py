@@ -13,6 +13,7 @@ import numpy as np
 
 from chiptwin.characterize.adc1241.histogram import HistogramResult
 from chiptwin.characterize.adc1241.sine import DynamicResult
+from chiptwin.twin.figures import save_figure as _save
 
 
 def make_plots(hist: HistogramResult | None, dyn: DynamicResult | None, folder: str | Path,
@@ -29,15 +30,6 @@ def make_plots(hist: HistogramResult | None, dyn: DynamicResult | None, folder: 
     if dyn is not None:
         made.append(output_spectrum(dyn, out, prefix))
     return made
-
-
-def _save(fig, folder: Path, name: str, caption: str) -> tuple[str, str]:
-    import matplotlib.pyplot as plt
-
-    fig.tight_layout()
-    fig.savefig(folder / name, dpi=100)
-    plt.close(fig)
-    return name, caption
 
 
 def dnl_inl(h: HistogramResult, folder: Path, prefix: str = "adc") -> tuple[str, str]:
