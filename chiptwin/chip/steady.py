@@ -2,7 +2,7 @@
 
 A run is *steady* when the frame memory holds the dark block and every job's frames (no write
 overflows) and every DSP job ends before the next write after the one that started it, at a tick
-where the sensor does nothing. Then no two events meet at one tick where their order could
+where the sensor does nothing, and starts at one (its write) too. Then no two events meet at one tick where their order could
 matter, and :func:`~chiptwin.chip.des.simulate_chip`'s run follows from the schedule alone
 (frame ``k`` is written at ``t_k = k·frame_period + busy``)::
 
@@ -146,7 +146,8 @@ def steady_run(sch: Schedule, frame_steps: bool) -> SteadyRun | None:
 
     Steady: a dark block of at least one frame; a memory that holds it and a job's frames; an
     idle time ≥ 0; every DSP job of a length ≥ 0, shorter than a frame period (it ends before
-    the next write) and ending at none of the sensor's ticks after its write (:func:`_sensor_ticks`).
+    the next write), starting (at its write) and ending at none of the sensor's ticks after that
+    write (:func:`_sensor_ticks`; with no idle time the write is the next frame's reset).
     """
     if sch.dark_frames < 1 or sch.block_frames < 1 or sch.frame_period_ns < sch.busy_ns:
         return None
@@ -155,7 +156,7 @@ def steady_run(sch: Schedule, frame_steps: bool) -> SteadyRun | None:
     jobs = (sch.job_ns(sch.dark_frames, False), sch.job_ns(sch.block_frames, True))
     if min(jobs) < 0 or max(jobs) >= sch.frame_period_ns:
         return None
-    if set(jobs) & _sensor_ticks(sch, frame_steps):
+    if {0, *jobs} & _sensor_ticks(sch, frame_steps):  # a job starts or ends on a sensor tick
         return None
     return SteadyRun(sch, frame_steps)
 
