@@ -20,6 +20,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export PIP_DISABLE_PIP_VERSION_CHECK=1
+# Let Python cache compiled modules in __pycache__ (git ignores it). Some machine images set
+# PYTHONDONTWRITEBYTECODE (this project's does): then every xdist worker and every subprocess a
+# test starts compiles chiptwin's and the tests' sources again, and pytest rewrites every test
+# module's asserts again. Measured: collection 6.8 s a worker without the cache, 3.7 s with it.
+unset PYTHONDONTWRITEBYTECODE
 
 PY="${PYTHON:-}"
 if [ -z "$PY" ]; then
