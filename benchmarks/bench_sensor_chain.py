@@ -140,7 +140,7 @@ def fast(n_threads: int | None, shot_noise: str = "poisson") -> Callable:
     return run
 
 
-@numba.njit(cache=False)
+@numba.njit(cache=True)
 def _piece(state, lam, upto, out, full_well, read, pedestal, cg, v_min, lsb, top):
     """The chain's per-pixel work up to piece ``upto`` (see :func:`components`), one value each."""
     for i in range(lam.size):
