@@ -29,10 +29,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from chiptwin.optics import _profile_kernels as _kernels
 from chiptwin.optics.layers import Layer, Stack
 from chiptwin.optics.quadrature import gauss_legendre
 
@@ -129,22 +131,16 @@ class RadialProfile:
     def cumulative(self, r: ArrayLike) -> NDArray[np.float64]:
         """``P(r)``: fraction of the emitted photons within ``r`` µm of the foot (no checks)."""
         r = np.asarray(r, dtype=np.float64)
-        rho, last = self.rho_um, self.rho_um.size - 2
-        k = np.clip(np.searchsorted(rho, r, side="right") - 1, 0, last)
-        h = rho[k + 1] - rho[k]
-        s = (r - rho[k]) / h
-        s2, s3 = s * s, s * s * s
-        out = ((2 * s3 - 3 * s2 + 1) * self.cum[k] + (s3 - 2 * s2 + s) * h * self.dens[k]
-               + (3 * s2 - 2 * s3) * self.cum[k + 1] + (s3 - s2) * h * self.dens[k + 1])
-        beyond = r >= rho[-1]
-        if beyond.any():
-            if self.bounded:
-                tail = np.full(r.shape, self.total)
-            else:
-                with np.errstate(divide="ignore"):
-                    tail = self.total - (self.total - self.cum[-1]) * (rho[-1] / r) ** 2
-            out = np.where(beyond, tail, out)
-        return np.where(r <= 0, 0.0, out)
+        out = np.empty(r.shape)
+        _kernels.cumulative(*self.table, np.ascontiguousarray(r).reshape(-1), out.reshape(-1))
+        return out
+
+    @cached_property
+    def table(self) -> tuple:
+        """The arguments the kernels take for ``P`` (:mod:`chiptwin.optics._profile_kernels`):
+        the table, and its guide."""
+        return (self.rho_um, self.cum, self.dens, self.total, self.bounded,
+                *_kernels.guide(self.rho_um))
 
     def density(self, r: ArrayLike) -> NDArray[np.float64]:
         """``dP/dr`` of the interpolant (per µm; no checks; 0 beyond the last node)."""

@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from chiptwin import _checks
+from chiptwin.optics import _profile_kernels
 from chiptwin.optics.collection import ISOTROPIC, LAMBERTIAN_NA2, plane_fraction
 from chiptwin.optics.faceplate import Faceplate
 from chiptwin.optics.layers import Layer, Stack
@@ -102,18 +103,12 @@ def _panel(lo: NDArray, hi: NDArray, n: int) -> tuple[NDArray, NDArray]:
 
 def _h(profile: RadialProfile, x: NDArray, y: NDArray, n: int) -> NDArray:
     """``H(x, y) = ∫₀^{asinh(y/x)} P(x cosh w)/cosh w dw`` for ``x, y > 0``; split at the
-    profile's outer edge when it is bounded (a kink of ``P``)."""
-    w_max = np.arcsinh(y / x)
-    if profile.bounded:
-        w_edge = np.arccosh(np.clip(profile.rho_um[-1] / x, 1.0, None))
-        w_edge = np.minimum(w_edge, w_max)
-    else:
-        w_edge = w_max
-    out = np.zeros(x.size)
-    for lo, hi in ((np.zeros_like(w_max), w_edge), (w_edge, w_max)):
-        nodes, weights = _panel(lo, hi, n)
-        cosh = np.cosh(nodes)
-        out += np.sum(profile.cumulative(x[:, None] * cosh) / cosh * weights, axis=1)
+    profile's outer edge when it is bounded (a kink of ``P``); ``n`` Gauss–Legendre nodes a panel
+    (:func:`chiptwin.optics._profile_kernels.corner_h`)."""
+    gl_x, gl_w = gauss_legendre(n)
+    out = np.empty(x.size)
+    _profile_kernels.corner_h(*profile.table, np.ascontiguousarray(x, dtype=np.float64),
+                              np.ascontiguousarray(y, dtype=np.float64), gl_x, gl_w, out)
     return out
 
 
