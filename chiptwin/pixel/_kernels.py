@@ -220,7 +220,7 @@ def table_moments(mu, sd, rows, lut, window, out_mean, out_var):
 def chain_chunk(
     shot_state, normal_state, photons, gain_map, dark_e, qe, full_well, ktc, read_noise, true_cds,
     read_reset, shot_noise, gauss_min_mean, pedestal, cg_V, v_min, lsb, adc_gain, offset, top,
-    conv, reset_out, signal_out,
+    conv, reset_out, signal_out, col0,
 ):  # fmt: skip
     """One frame of one chunk of pixels: charge, kTC, read noise, ADC. Codes into the outputs.
 
@@ -230,9 +230,12 @@ def chain_chunk(
     (SFC64, advanced in place too): the Gaussian
     level's normal (if used), the signal kTC draw (if ``ktc > 0``), the reset kTC draw (if
     ``ktc > 0``, ``read_reset`` and not ``true_cds``), the M reset samples' read noise (if
-    ``read_reset``), the M signal samples' read noise. ``reset_out`` and ``signal_out`` are
-    ``(M, n)`` (``reset_out`` unused unless ``read_reset``). Electrons and volts are formed as in
-    ``sample_frame`` and ``to_volts``. The ideal converter (``conv[0]`` False) converts each
+    ``read_reset``), the M signal samples' read noise. ``reset_out`` and ``signal_out`` are the
+    frame's whole ``(M, N)`` codes (``reset_out`` unused unless ``read_reset``); the chunk's
+    pixels are their columns ``col0 … col0 + n − 1``. (Passing the frame's arrays, not the
+    chunk's column slices, keeps one compiled version: a slice is C-contiguous when the frame is
+    one chunk and strided when it is several, two signatures of ≈ 15 s of compilation each.)
+    Electrons and volts are formed as in ``sample_frame`` and ``to_volts``. The ideal converter (``conv[0]`` False) converts each
     sample as it is formed (:func:`adc_code`, today's arithmetic). As built, the sample voltages
     of each block of :data:`CONVERT_BLOCK` pixels are kept and converted after the block by
     :func:`convert_rows` (the per-pixel arrays sliced to the block): its reset samples
@@ -265,7 +268,7 @@ def chain_chunk(
                 if built:
                     v_reset[m, i % block] = pedestal + e * cg_V
                 else:
-                    reset_out[m, i] = adc_code(
+                    reset_out[m, col0 + i] = adc_code(
                         pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top
                     )
         for m in range(n_samples):
@@ -273,13 +276,16 @@ def chain_chunk(
             if built:
                 v_signal[m, i % block] = pedestal + e * cg_V
             else:
-                signal_out[m, i] = adc_code(pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top)
+                signal_out[m, col0 + i] = adc_code(
+                    pedestal + e * cg_V, v_min, lsb, adc_gain, offset, top
+                )
         if built and (i % block == block - 1 or i == photons.size - 1):
             lo, hi = i - i % block, i + 1  # a block's samples: reset ones, then signal ones
             part = (True, conv[1][lo:hi], conv[2][lo:hi], conv[3][lo:hi], *conv[4:])
             consts = (v_min, lsb, adc_gain, offset, top)
-            convert_rows(v_reset[:, : hi - lo], reset_out[:, lo:hi], *consts, part, normal)
-            convert_rows(v_signal[:, : hi - lo], signal_out[:, lo:hi], *consts, part, normal)
+            cols = slice(col0 + lo, col0 + hi)
+            convert_rows(v_reset[:, : hi - lo], reset_out[:, cols], *consts, part, normal)
+            convert_rows(v_signal[:, : hi - lo], signal_out[:, cols], *consts, part, normal)
     shot_state[:] = state
     normal_state[:] = normal
 

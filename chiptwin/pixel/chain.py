@@ -184,7 +184,7 @@ def _run_frame(
         sl = slice(c * chunk, (c + 1) * chunk)
         _kernels.chain_chunk(  # read-only inputs: one compiled version whatever the caller's
             shot[c], noise[c], photons[sl], readonly(gain[sl]), readonly(dark[sl]), *plan.consts,
-            plan.convs[c], reset2d[:, sl], signal2d[:, sl],
+            plan.convs[c], reset2d, signal2d, sl.start,
         )  # fmt: skip
 
     if pool is None:
