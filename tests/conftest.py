@@ -63,7 +63,9 @@ REDUCED = {
 
 #: Modules whose costly module- or session-scoped fixtures serve several tests: under
 #: ``pytest -n auto --dist loadgroup`` (scripts/test.sh) each group runs on one worker, so each
-#: fixture is computed once instead of once per worker that gets one of its tests.
+#: fixture is computed once instead of once per worker that gets one of its tests. The same
+#: holds for numba's compilation on a fresh checkout (no cache yet): two workers that meet one
+#: kernel at once both compile it.
 XDIST_GROUPS = {
     "tests/validation/test_paper_yield.py": "paper_yield",  # two whole runs (7 s and 2 s)
     "tests/validation/test_noise_monte_carlo.py": "noise_monte_carlo",  # 1.5 s of seeds
@@ -75,6 +77,9 @@ XDIST_GROUPS = {
     # the session's `frame_memory_result` study (tests/study/conftest.py)
     "tests/study/test_bundled.py": "frame_memory_study",
     "tests/study/test_outputs.py": "frame_memory_study",
+    # _random.fill on three sources (PCG64, SFC64, a Generator): 17-27 s of compilation cold,
+    # the PCG64 version compiled by both workers when the module was split (0.7 s of tests warm)
+    "tests/pixel/test_random.py": "random_fill",
 }
 
 
