@@ -123,10 +123,10 @@ def _array_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
     fig, ax = plt.subplots(figsize=(7, 3.5))
     if "site_called_right" in a:
         right = a["site_called_right"]
-        ax.hist([snr_db[right], snr_db[~right]], bins=60, stacked=True,
+        ax.hist([snr_db[right], snr_db[~right]], bins=60, stacked=True, histtype="stepfilled",
                 color=["tab:blue", "tab:red"], label=["called right", "called wrong"])
     else:
-        ax.hist(snr_db, bins=60, color="tab:blue")
+        ax.hist(snr_db, bins=60, color="tab:blue", histtype="stepfilled")
     ax.axvline(10 * np.log10(s.run.detection_snr_power), color="k", ls=":", lw=1,
                label="detection threshold")
     ax.set(xlabel="SNR (power, dB)", ylabel="sites", title="Distribution of per-site SNR")
