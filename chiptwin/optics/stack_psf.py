@@ -46,12 +46,12 @@ from chiptwin.optics.profile import (
     fresnel_unpolarised,
 )
 from chiptwin.optics.psf import (
-    OFFSET_QUANTUM_UM,
     _check_grid,
     _footprint,
     _footprint_nodes,
     _sites,
     coupling_psf,
+    distinct_offsets,
     pixel_centers_um,
 )
 from chiptwin.optics.quadrature import gauss_legendre
@@ -268,13 +268,12 @@ def coupling_stack(
     px, py = pixel_centers_um(rows, cols, pitch_um)
     dx = np.abs(px[:, None] - sx[None, :]).ravel()
     dy = np.abs(py[:, None] - sy[None, :]).ravel()
-    keys = np.round(np.stack([dx, dy], axis=1) / OFFSET_QUANTUM_UM)
-    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    first, inverse = distinct_offsets(dx, dy)
     values = _converged(profile, dx[first], dy[first], 0.5 * diode_w_um, 0.5 * diode_h_um,
                         size if shape == "square" else 0.0, faceplate, atol)
     if faceplate is not None:
         values = values * faceplate.open_area_ratio
-    return values[inverse.ravel()].reshape(rows * cols, sx.size)
+    return values[inverse].reshape(rows * cols, sx.size)
 
 
 # --- plane fractions and the collected fraction under each law ------------------------------------

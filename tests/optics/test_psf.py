@@ -264,3 +264,18 @@ def test_na2_rejects_sites_off_the_array():
     with pytest.raises(ValueError, match=r"site_x_um\[1\] = 1600.0 is outside the pixel array"):
         psf.coupling_na2(**GRID, site_x_um=[5.0, 1600.0], site_y_um=[5.0, 5.0], height_um=15.0,
                          convention="isotropic")
+
+
+def test_distinct_offsets_is_numpys_unique_of_the_rounded_pairs():
+    """The same first occurrences and inverse as ``np.unique(axis=0)`` on the rounded offsets:
+    ties (a grid's repeated offsets), offsets closer than the quantum, zeros, and one set where
+    every offset is distinct."""
+    rng = np.random.default_rng(4)
+    grid = np.abs(rng.integers(0, 9, (2, 5000)) - rng.integers(0, 9, (2, 5000))) * 7.5
+    near = grid + rng.choice([0.0, 0.2e-9, 3e-9], size=grid.shape)
+    for dx, dy in (grid, near, rng.uniform(0.0, 300.0, (2, 4000)), np.zeros((2, 10))):
+        keys = np.round(np.stack([dx, dy], axis=1) / psf.OFFSET_QUANTUM_UM)
+        _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        got_first, got_inverse = psf.distinct_offsets(dx, dy)
+        assert np.array_equal(got_first, first)
+        assert np.array_equal(got_inverse, inverse.ravel())
