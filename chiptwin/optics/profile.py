@@ -130,10 +130,22 @@ class RadialProfile:
 
     def cumulative(self, r: ArrayLike) -> NDArray[np.float64]:
         """``P(r)``: fraction of the emitted photons within ``r`` µm of the foot (no checks)."""
+        return self.evaluate(r, density=False)[0]
+
+    def density(self, r: ArrayLike) -> NDArray[np.float64]:
+        """``dP/dr`` of the interpolant (per µm; no checks; 0 beyond the last node)."""
+        return self.evaluate(r, density=True)[1]
+
+    def evaluate(self, r: ArrayLike, *, density: bool = True
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """``P(r)`` and (``density``) ``dP/dr`` in one pass
+        (:func:`chiptwin.optics._profile_kernels.evaluate`)."""
         r = np.asarray(r, dtype=np.float64)
-        out = np.empty(r.shape)
-        _kernels.cumulative(*self.table, np.ascontiguousarray(r).reshape(-1), out.reshape(-1))
-        return out
+        p = np.empty(r.shape)
+        d = np.empty(r.shape if density else 0)
+        _kernels.evaluate(*self.table, np.ascontiguousarray(r).reshape(-1), p.reshape(-1),
+                          d.reshape(-1))
+        return p, (d if density else None)
 
     @cached_property
     def table(self) -> tuple:
@@ -141,18 +153,6 @@ class RadialProfile:
         the table, and its guide."""
         return (self.rho_um, self.cum, self.dens, self.total, self.bounded,
                 *_kernels.guide(self.rho_um))
-
-    def density(self, r: ArrayLike) -> NDArray[np.float64]:
-        """``dP/dr`` of the interpolant (per µm; no checks; 0 beyond the last node)."""
-        r = np.asarray(r, dtype=np.float64)
-        rho, last = self.rho_um, self.rho_um.size - 2
-        k = np.clip(np.searchsorted(rho, r, side="right") - 1, 0, last)
-        h = rho[k + 1] - rho[k]
-        s = (r - rho[k]) / h
-        s2 = s * s
-        out = ((6 * s2 - 6 * s) / h * self.cum[k] + (3 * s2 - 4 * s + 1) * self.dens[k]
-               + (6 * s - 6 * s2) / h * self.cum[k + 1] + (3 * s2 - 2 * s) * self.dens[k + 1])
-        return np.where((r <= 0) | (r >= rho[-1]), 0.0, out)
 
 
 def _node_integrals(layers, edges: NDArray, law: str) -> NDArray:
@@ -238,8 +238,9 @@ def _disc_terms(profile, a, rho, d, m, h, tau, w):
     chord_dr = np.nan_to_num(chord_dr)
     arc = 2.0 * rho * np.arccos(np.clip(np.nan_to_num(cos_arg), -1.0, 1.0))
     area = math.pi * a * a
-    cum = np.sum(profile.cumulative(r) * chord_dr * w, axis=1) / area
-    dens = np.sum(profile.density(r) * arc * h * sin * w, axis=1) / area
+    p_r, dp_r = profile.evaluate(r)
+    cum = np.sum(p_r * chord_dr * w, axis=1) / area
+    dens = np.sum(dp_r * arc * h * sin * w, axis=1) / area
     return cum, dens
 
 

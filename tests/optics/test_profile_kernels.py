@@ -56,6 +56,31 @@ def test_p_is_the_hermite_table_to_the_bit(profile):
     assert profile.cumulative(np.float64(rho[3])).shape == ()
 
 
+@np.errstate(all="ignore")
+def _dp_numpy(p: RadialProfile, r: np.ndarray) -> np.ndarray:
+    rho, last = p.rho_um, p.rho_um.size - 2
+    k = np.clip(np.searchsorted(rho, r, side="right") - 1, 0, last)
+    h = rho[k + 1] - rho[k]
+    s = (r - rho[k]) / h
+    s2 = s * s
+    out = ((6 * s2 - 6 * s) / h * p.cum[k] + (3 * s2 - 4 * s + 1) * p.dens[k]
+           + (6 * s - 6 * s2) / h * p.cum[k + 1] + (3 * s2 - 2 * s) * p.dens[k + 1])
+    return np.where((r <= 0) | (r >= rho[-1]), 0.0, out)
+
+
+@pytest.mark.parametrize("profile", _profiles(), ids=lambda p: f"bounded={p.bounded}")
+def test_density_is_the_hermite_derivative_to_the_bit(profile):
+    """dP/dr on the same radii as P's test, alone and together with P."""
+    rho = profile.rho_um
+    r = np.concatenate([np.random.default_rng(3).uniform(0.0, 1.2 * rho[-1], 20_000), rho,
+                        0.5 * (rho[1:] + rho[:-1]), [0.0, -1.0, rho[-1], 1e300, np.inf]])
+    want = _dp_numpy(profile, r)
+    assert np.array_equal(profile.density(r), want)
+    p, d = profile.evaluate(r)
+    assert np.array_equal(d, want) and np.array_equal(p, _p_numpy(profile, r))
+    assert profile.evaluate(r, density=False)[1] is None
+
+
 def _h_numpy(p: RadialProfile, x: np.ndarray, y: np.ndarray, n: int) -> np.ndarray:
     w_max = np.arcsinh(y / x)
     w_edge = (np.minimum(np.arccosh(np.clip(p.rho_um[-1] / x, 1.0, None)), w_max)
