@@ -83,8 +83,25 @@ XDIST_GROUPS = {
 }
 
 
+@pytest.hookimpl(tryfirst=True)  # before xdist's own hook, which reads the marks into node ids
 def pytest_collection_modifyitems(config, items) -> None:
     for item in items:
         group = XDIST_GROUPS.get(item.path.relative_to(ROOT).as_posix())
         if group:
             item.add_marker(pytest.mark.xdist_group(group))
+
+
+@pytest.hookimpl(optionalhook=True)  # pytest-xdist's hook, on the controller
+def pytest_xdist_node_collection_finished(node, ids) -> None:
+    """Under ``--dist loadgroup`` xdist sends each group to one worker by the ``@group`` suffix
+    its workers put on the node ids; with pytest 9.2 and pytest-xdist 3.8 the suffix is silently
+    lost and every test goes anywhere (pytest-dev/pytest-xdist#1386). Stop rather than compute
+    the groups' shared fixtures, and compile their kernels, on every worker unnoticed."""
+    if node.config.getoption("dist", default="no") != "loadgroup":
+        return
+    lost = [i for i in ids if i.split("::")[0] in XDIST_GROUPS and "@" not in i]
+    if lost:
+        pytest.exit(f"--dist loadgroup groups nothing: {lost[0]} lost its group (pytest "
+                    f"{pytest.__version__}, pytest-dev/pytest-xdist#1386): install the test "
+                    "extra's pytest (<9.2) or run without --dist loadgroup",
+                    returncode=pytest.ExitCode.USAGE_ERROR)
