@@ -11,9 +11,10 @@
 # 3. python -m pytest -n auto --dist loadgroup --durations=15 "$@"   (pytest-xdist: one worker
 #    per core; the modules of tests/conftest.py's XDIST_GROUPS share costly fixtures and each
 #    group runs on one worker, every other test goes where a worker is free; the slowest 15
-#    tests listed at the end; pass -n 0 to run in one process, e.g. with --pdb).
-#    --dist loadscope (every module on one worker) measured no better than plain load: cold
-#    cache 6 min 18 s against 6 min 0 s, warm 4 min 21 s against 4 min 30 s (one run each).
+#    tests listed at the end; pass -n 0 to run in one process, e.g. with --pdb). The groups
+#    need pytest < 9.2 (the test extra pins it: pytest-dev/pytest-xdist#1386); before that pin
+#    they silently did nothing. With them working, a fresh checkout's suite took 3 min 59 s,
+#    4 min 19 s without them three commits earlier (one run each; two optics speed-ups between).
 #
 # Without the simulators (and no way to install them) the RTL tests skip with a message saying
 # how to install them; with CI=true they fail instead.
