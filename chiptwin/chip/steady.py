@@ -2,9 +2,9 @@
 
 A run is *steady* when the frame memory holds the dark block and every job's frames (no write
 overflows) and every DSP job ends before the next write after the one that started it, at a tick
-where the sensor does nothing, and starts at one (its write) too. Then no two events meet at one tick where their order could
-matter, and :func:`~chiptwin.chip.des.simulate_chip`'s run follows from the schedule alone
-(frame ``k`` is written at ``t_k = k·frame_period + busy``)::
+where the sensor does nothing, and starts at one (its write) too. Then no two events meet at
+one tick where their order could matter, and :func:`~chiptwin.chip.des.simulate_chip`'s run
+follows from the schedule alone (frame ``k`` is written at ``t_k = k·frame_period + busy``)::
 
     dark job   frames 0 … K−1, from t_{K−1}, for job_ns(K); dark() at its end
     job j      frames K + jN … K + (j+1)N − 1, from the write of its last frame, for job_ns(N)

@@ -235,11 +235,11 @@ def chain_chunk(
     pixels are their columns ``col0 … col0 + n − 1``. (Passing the frame's arrays, not the
     chunk's column slices, keeps one compiled version: a slice is C-contiguous when the frame is
     one chunk and strided when it is several, two signatures of ≈ 15 s of compilation each.)
-    Electrons and volts are formed as in ``sample_frame`` and ``to_volts``. The ideal converter (``conv[0]`` False) converts each
-    sample as it is formed (:func:`adc_code`, today's arithmetic). As built, the sample voltages
-    of each block of :data:`CONVERT_BLOCK` pixels are kept and converted after the block by
-    :func:`convert_rows` (the per-pixel arrays sliced to the block): its reset samples
-    ``(M, block)``, then its signal samples. Comparator noise comes folded into the read noise
+    Electrons and volts are formed as in ``sample_frame`` and ``to_volts``. The ideal converter
+    (``conv[0]`` False) converts each sample as it is formed (:func:`adc_code`, today's
+    arithmetic). As built, the sample voltages of each block of :data:`CONVERT_BLOCK` pixels are
+    kept and converted after the block by :func:`convert_rows` (the per-pixel arrays sliced to
+    the block): its reset samples ``(M, block)``, then its signal samples. Comparator noise comes folded into the read noise
     (``conv[8]``, see :func:`sample_noise`): nothing more is drawn.
     """
     state = shot_state.copy()  # private copies: threads never write neighbouring cache lines

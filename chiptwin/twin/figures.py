@@ -3,9 +3,9 @@
 ``Figure.tight_layout()`` leaves a placeholder layout engine on the figure, and ``savefig`` on a
 figure with any layout engine draws it once more without rendering before the real draw (to lay
 it out; matplotlib 3.11, ``FigureCanvasBase.print_figure``). The layout is already done, so the
-engine is removed: the file is byte for byte the same, one draw cheaper (≈ 25 % of a run's
-plotting, measured on pyro_1fmol's four figures). Figures made with ``layout="constrained"``
-keep their engine (``tight=False``): their layout happens in that draw.
+engine is removed: the file is byte for byte the same, one draw cheaper (a run's light curve
+with a colorbar: 180–197 ms → 135–150 ms, three saves each). Figures made with
+``layout="constrained"`` keep their engine (``tight=False``): their layout happens in that draw.
 """
 
 from __future__ import annotations
