@@ -84,6 +84,11 @@ AS_BUILT_SERIES_S: float = 1.4e-6
 #: 1-LSB comparator 19.4 s (48 nodes, 25 codes), with DNL 0.2 LSB rms 31 s (192 nodes, 7 codes).
 AS_BUILT_NODE_S: float = 1.7e-7
 AS_BUILT_CODE_S: float = 3.5e-8
+#: Per pixel-frame, pass and node near the range's ends from 3 LSB of white rms on the ideal
+#: transitions: the moments' closed form (chiptwin.pixel.adc._end_moments) instead of a window
+#: of codes. Unit: s (ccd_two_wells shortened, a 256-LSB comparator: 1.25 s a call over ≈ 8 M
+#: element-nodes).
+AS_BUILT_END_S: float = 1.6e-7
 #: The factor within which the estimate is held of measured wall time (tests/config/test_cost.py).
 ESTIMATE_FACTOR: float = 10.0
 #: Per worker of a study's process pool: spawn, import numpy/numba/chiptwin, load the kernels.
@@ -165,7 +170,9 @@ def _as_built_term(s: Scenario, pixel_frames: int) -> CostTerm:
     window of ±10 ``u`` when the converter has a transition table, its white noise is below the
     series' floor, or the dark level sits within ``10 (u + kTC)`` of code 0 (every dark
     pixel-frame then leaves the series: ccd_two_wells with a 128-LSB comparator, its pedestal at
-    code 1,311)."""
+    code 1,311); there, from 3 LSB of ``u`` on the ideal transitions, the ends' closed form
+    instead of the window."""
+    from chiptwin.pixel.adc import END_CLOSED_FROM_LSB
     from chiptwin.pixel.converter import AsBuilt
     from chiptwin.pixel.expected_adc import SERIES_MIN_WHITE_LSB, node_count
     from chiptwin.pixel.sensor import conversion_gain_uV_per_e, ktc_noise_e
@@ -179,12 +186,17 @@ def _as_built_term(s: Scenario, pixel_frames: int) -> CostTerm:
     table = AsBuilt.from_keys(a).shaped
     keys = "chip.adc (" + ", ".join(a.as_built_keys) + "), chip.pixel.read_noise_e"
     if table or u < SERIES_MIN_WHITE_LSB or dark - 10.0 * (u + ktc) < 0.5:
-        codes, nodes = 2 * math.ceil(10.0 * u) + 3, node_count(ktc, u)
-        each = AS_BUILT_NODE_S + codes * AS_BUILT_CODE_S
+        nodes = node_count(ktc, u)
+        if table or u < END_CLOSED_FROM_LSB:
+            codes = 2 * math.ceil(10.0 * u) + 3
+            each = AS_BUILT_NODE_S + codes * AS_BUILT_CODE_S
+            what = f"{codes} codes × {AS_BUILT_CODE_S:g} s"
+        else:  # near code 0 the moments' closed form, not a window of codes
+            each = AS_BUILT_NODE_S + AS_BUILT_END_S
+            what = f"the ends' closed form {AS_BUILT_END_S:g} s"
         return CostTerm(f"{pixel_frames:.3g} pixel-frames of the converter as built by "
                         f"Gauss–Hermite: 2 passes × {nodes} nodes × ({AS_BUILT_NODE_S:g} s + "
-                        f"{codes} codes × {AS_BUILT_CODE_S:g} s)",
-                        pixel_frames * 2 * nodes * each, keys)
+                        f"{what})", pixel_frames * 2 * nodes * each, keys)
     return CostTerm(f"{pixel_frames:.3g} pixel-frames of the converter as built by the series × "
                     f"{AS_BUILT_SERIES_S:g} s", pixel_frames * AS_BUILT_SERIES_S, keys)
 

@@ -48,6 +48,53 @@ def adc_code(volts: float, v_min: float, lsb: float, gain: float, offset: float,
     return int(x)
 
 
+_SQRT_HALF = math.sqrt(0.5)
+_INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
+
+
+@NJIT
+def _tail_sums(a: float, n: float, sd: float, coeffs) -> tuple[float, float]:
+    """``Σ_{j=1}^{n} Q(t_j)`` and ``Σ_{j=1}^{n} (2j − 1) Q(t_j)``, ``t_j = (j − ½ − a)/sd``, by the
+    midpoint Euler–Maclaurin formula with the coefficients ``coeffs`` (a tuple;
+    :func:`chiptwin.pixel.adc._end_moments` states the integrals and derivatives)."""
+    t0, t1 = -a / sd, (n - a) / sd
+    q0, q1 = 0.5 * math.erfc(t0 * _SQRT_HALF), 0.5 * math.erfc(t1 * _SQRT_HALF)
+    p0, p1 = math.exp(-0.5 * t0 * t0) * _INV_SQRT_2PI, math.exp(-0.5 * t1 * t1) * _INV_SQRT_2PI
+    s0 = sd * ((t1 * q1 - p1) - (t0 * q0 - p0))
+    s1 = 2.0 * a * s0 + sd * sd * (((t1 * t1 - 1.0) * q1 - t1 * p1)
+                                   - ((t0 * t0 - 1.0) * q0 - t0 * p0))
+    inv = 1.0 / sd
+    for end in range(2):
+        t, q, p = (t1, q1, p1) if end == 0 else (t0, q0, p0)
+        w, sign = (2.0 * n, 1.0) if end == 0 else (0.0, -1.0)  # 2x − 1 at x = n + ½, ½
+        h_odd, h_even = 0.0, 1.0  # He_{2m−3}, He_{2m−2} (He_{−1} = 0)
+        pow_k = inv  # sd^{−k}, k = 2m − 1
+        for m in range(len(coeffs)):
+            k = 2 * m + 1
+            f_k = -pow_k * h_even * p  # f^{(k)}, k odd
+            f_k1 = q if m == 0 else pow_k * sd * h_odd * p  # f^{(k−1)}, k − 1 even
+            s0 += sign * coeffs[m] * f_k
+            s1 += sign * coeffs[m] * (w * f_k + 2.0 * k * f_k1)
+            h_odd = t * h_even - (k - 1) * h_odd  # He_k
+            h_even = t * h_odd - k * h_even  # He_{k+1}
+            pow_k *= inv * inv
+    return s0, s1
+
+
+@NJIT
+def end_moments(mu, sd, top, coeffs, mean, var):
+    """Mean and variance of ``clip(rint(X), 0, top)``, ``X ~ N(mu[i], sd[i]²)``, about
+    ``c = clip(rint(mu), 0, top)`` by two tail sums on either side
+    (:func:`chiptwin.pixel.adc._end_moments`)."""
+    for i in range(mu.size):
+        c = min(max(np.rint(mu[i]), 0.0), top)
+        up0, up1 = _tail_sums(mu[i] - c, top - c, sd[i], coeffs)
+        lo0, lo1 = _tail_sums(c - mu[i], c, sd[i], coeffs)
+        d1 = up0 - lo0
+        mean[i] = c + d1
+        var[i] = max(up1 + lo1 - d1 * d1, 0.0)
+
+
 #: Pixels whose samples :func:`chain_chunk` converts together as built: the voltages of a block
 #: (``2M × 256 × 8 B``, 16 kB at M = 4) stay in the L1 cache; a whole chunk's went to memory and
 #: back (≈ 15 ns a conversion more, measured).

@@ -48,11 +48,12 @@ SWEEP_SITES = 64
 #: every scenario but pyro_array_256 fits, pyro_paper_yield_fast with one 1 s block per flow
 #: (1,280 frames) and ccd_two_wells's 512 pixels with 336 frames. A run's cost is mostly fixed
 #: (plots, the optics summary); what grows with its pixel-frames is the converter as built
-#: (its expected moments: ≈ 1.4 µs a pixel-frame by the series, up to ms by Gauss–Hermite with
-#: a wide white noise near code 0), which the wall-time estimate holds under RUN_WALL_MAX_S.
+#: (its expected moments: ≈ 1.4 µs a pixel-frame by the series, tens of µs by Gauss–Hermite
+#: with a wide white noise near code 0), which the wall-time estimate holds under RUN_WALL_MAX_S.
 RUN_FRAMES, RUN_PIXEL_FRAMES = 1300, 180_000
-#: A valid mutation estimated past this (chiptwin.config.cost) is validated, not run: ccd_two_wells
-#: with a comparator of 256 LSB (its range's top) is estimated at ≈ 50 min. Unit: s.
+#: A valid mutation estimated past this (chiptwin.config.cost) is validated, not run (ccd_two_wells
+#: with a comparator of 256 LSB, its range's top, is estimated at 6.5 s and runs in ≈ 10 s; before
+#: the ends' closed form it was ≈ 50 min). Unit: s.
 RUN_WALL_MAX_S = 30.0
 #: Faceplates the run test runs: the imaging range (3 … 25 µm fibres, the schema's doc). Beyond
 #: half the diode a fibre is refused (config.budget.FIBER_PER_DIODE_MAX: the quadrature of its

@@ -204,6 +204,36 @@ def test_adc_expected_against_brute_force_sum(mu, sd):
     assert var == pytest.approx(ref_var, abs=1e-9)
 
 
+@pytest.mark.parametrize("sd", [2.0, 2.7, 3.0, 5.0, 40.0, 300.0, 3000.0])
+def test_moments_at_the_ends_in_closed_form_are_the_full_sums(sd):
+    """Within 10σ of either end of a 13-bit range, and past the ends: the moments (exact sums
+    below 3 LSB rms, the Euler–Maclaurin closed form from 3 LSB) against the full sum over every
+    code (NumPy, no window; each code's probability from the nearer tail, so that the codes
+    far above the input do not round in Φ ≈ 1), to 1e-12 LSB² or 1e-12 relative."""
+    bits, top = 13, 2.0**13 - 1
+    reach = np.linspace(-3.0 * sd, 10.0 * sd, 40)
+    mus = np.concatenate([reach, top - reach, [0.0, 0.5, top - 0.5, top, -40.0 * sd]])
+    k = np.arange(top + 1.0)
+    upper, lower = np.where(k >= top, np.inf, k + 0.5), np.where(k <= 0, -np.inf, k - 0.5)
+    for mu in mus:
+        z_up, z_lo = (upper - mu) / sd, (lower - mu) / sd
+        p = np.where(z_lo > 0, ndtr(-z_lo) - ndtr(-z_up), ndtr(z_up) - ndtr(z_lo))
+        c = np.clip(np.rint(mu), 0.0, top)
+        m1, m2 = (p * (k - c)).sum(), (p * (k - c) ** 2).sum()
+        mean, var = adc_expected(mu * LSB, (sd * LSB) ** 2, bits, 0.0, 2.0**bits * LSB)
+        assert mean == pytest.approx(c + m1, rel=1e-14, abs=1e-12), mu
+        assert var == pytest.approx(m2 - m1 * m1, rel=1e-12, abs=1e-12), mu
+
+
+def test_moments_with_both_ends_in_reach():
+    """A 6-bit range under 40 LSB rms: both ends clip one Gaussian (the full sum, 1e-12)."""
+    for mu in (-20.0, 0.0, 31.5, 50.0, 90.0):
+        mean, var = adc_expected(mu * LSB, (40.0 * LSB) ** 2, 6, 0.0, 64 * LSB)
+        ref_mean, ref_var = _brute_force(mu, 40.0, 6)
+        assert mean == pytest.approx(ref_mean, abs=1e-12)
+        assert var == pytest.approx(ref_var, abs=1e-12)
+
+
 def test_adc_expected_sheppard_inside_the_range():
     """Well inside the range with σ ≥ 2 LSB: mean x̄ and variance σ² + 1/12 LSB² (REFERENCE §4)."""
     mean, var = adc_expected(0.5, (3.0 * LSB) ** 2, BITS, V0, V1, offset_lsb=0.25)
