@@ -169,13 +169,18 @@ def test_to_volts_table_and_checks():
 # --- the expected level ---------------------------------------------------------------------------
 
 
+def _code_probabilities(mu_lsb, sd_lsb, top):
+    """P(code = k) for x ~ N(mu, sd²), each from the nearer tail (a difference of Φ values near
+    1 rounds away the codes far above the input)."""
+    k = np.arange(top + 1, dtype=float)
+    z_up = (np.where(k == top, np.inf, k + 0.5) - mu_lsb) / sd_lsb
+    z_lo = (np.where(k == 0, -np.inf, k - 0.5) - mu_lsb) / sd_lsb
+    return k, np.where(z_lo > 0, ndtr(-z_lo) - ndtr(-z_up), ndtr(z_up) - ndtr(z_lo))
+
+
 def _brute_force(mu_lsb, sd_lsb, bits):
     """Moments of clip(rint(x)) for x ~ N(mu, sd²), summing the Gaussian over every code."""
-    top = 2**bits - 1
-    k = np.arange(top + 1, dtype=float)
-    upper = np.where(k == top, np.inf, k + 0.5)
-    lower = np.where(k == 0, -np.inf, k - 0.5)
-    p = ndtr((upper - mu_lsb) / sd_lsb) - ndtr((lower - mu_lsb) / sd_lsb)
+    k, p = _code_probabilities(mu_lsb, sd_lsb, 2**bits - 1)
     mean = (p * k).sum()
     return mean, (p * (k - mean) ** 2).sum()
 
@@ -208,16 +213,12 @@ def test_adc_expected_against_brute_force_sum(mu, sd):
 def test_moments_at_the_ends_in_closed_form_are_the_full_sums(sd):
     """Within 10σ of either end of a 13-bit range, and past the ends: the moments (exact sums
     below 3 LSB rms, the Euler–Maclaurin closed form from 3 LSB) against the full sum over every
-    code (NumPy, no window; each code's probability from the nearer tail, so that the codes
-    far above the input do not round in Φ ≈ 1), to 1e-12 LSB² or 1e-12 relative."""
+    code (NumPy, no window, :func:`_code_probabilities`), to 1e-12 LSB² or 1e-12 relative."""
     bits, top = 13, 2.0**13 - 1
     reach = np.linspace(-3.0 * sd, 10.0 * sd, 40)
     mus = np.concatenate([reach, top - reach, [0.0, 0.5, top - 0.5, top, -40.0 * sd]])
-    k = np.arange(top + 1.0)
-    upper, lower = np.where(k >= top, np.inf, k + 0.5), np.where(k <= 0, -np.inf, k - 0.5)
     for mu in mus:
-        z_up, z_lo = (upper - mu) / sd, (lower - mu) / sd
-        p = np.where(z_lo > 0, ndtr(-z_lo) - ndtr(-z_up), ndtr(z_up) - ndtr(z_lo))
+        k, p = _code_probabilities(mu, sd, top)
         c = np.clip(np.rint(mu), 0.0, top)
         m1, m2 = (p * (k - c)).sum(), (p * (k - c) ** 2).sum()
         mean, var = adc_expected(mu * LSB, (sd * LSB) ** 2, bits, 0.0, 2.0**bits * LSB)
