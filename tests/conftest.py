@@ -1,8 +1,13 @@
-"""Shared fixtures: the repository's scenario folder and a small, fast scenario."""
+"""Shared fixtures: the repository's scenario folder and a small, fast scenario; the one rule for
+a test whose tool is missing (skip off CI with how to install it, fail under CI=true)."""
 
 from __future__ import annotations
 
+import importlib
+import os
 from pathlib import Path
+from types import ModuleType
+from typing import NoReturn
 
 import pytest
 
@@ -59,6 +64,28 @@ REDUCED = {
     "pyro_paper_yield_fast": ["assay.n_flows=8", "assay.flow_period_s=4.0",
                               "run.duration_s=34.0"],
 }
+
+
+def in_ci() -> bool:
+    """``CI=true`` (GitHub Actions, GitLab, most CI services set it)."""
+    return os.environ.get("CI", "").strip().lower() in ("true", "1", "yes")
+
+
+def unavailable(what: str) -> NoReturn:
+    """A test's tool is missing (``what`` says which and how to install it): skip on a
+    developer's machine, fail under ``CI=true``, where scripts/test.sh installs every tool — the
+    suite's only skips besides test_kill's ``/proc`` (README, "Quick start")."""
+    if in_ci():
+        pytest.fail(f"CI=true and a test cannot run: {what}", pytrace=False)
+    pytest.skip(what)
+
+
+def require_module(name: str, extra: str = "test") -> ModuleType:
+    """``import name``, or :func:`unavailable` naming the extra that installs it."""
+    try:
+        return importlib.import_module(name)
+    except ImportError:
+        unavailable(f"{name} is not installed (pip install -e '.[{extra}]')")
 
 
 #: Modules whose costly module- or session-scoped fixtures serve several tests: under

@@ -20,6 +20,10 @@ import numpy as np
 from chiptwin._numba import NJIT
 
 
+#: Steps of the guide per table node.
+GUIDE_PER_NODE = 4
+
+
 def guide(rho: np.ndarray) -> tuple[np.ndarray, float]:
     """An index into the table: ``k`` of the node at or below ``ρ`` is found from
     ``g = ρ/(ρ + scale)`` in one step and a short scan. The table's nodes are uniform in the
@@ -32,9 +36,6 @@ def guide(rho: np.ndarray) -> tuple[np.ndarray, float]:
     k = np.searchsorted(rho, scale * g / (1.0 - g), side="right") - 1
     return np.clip(k, 0, rho.size - 2), scale
 
-
-#: Steps of the guide per table node.
-GUIDE_PER_NODE = 4
 
 
 @NJIT

@@ -286,8 +286,9 @@ def chain_chunk(
     (``conv[0]`` False) converts each sample as it is formed (:func:`adc_code`, today's
     arithmetic). As built, the sample voltages of each block of :data:`CONVERT_BLOCK` pixels are
     kept and converted after the block by :func:`convert_rows` (the per-pixel arrays sliced to
-    the block): its reset samples ``(M, block)``, then its signal samples. Comparator noise comes folded into the read noise
-    (``conv[8]``, see :func:`sample_noise`): nothing more is drawn.
+    the block): its reset samples ``(M, block)``, then its signal samples. Comparator noise
+    comes folded into the read noise (``conv[8]``, see :func:`sample_noise`): nothing more is
+    drawn.
     """
     state = shot_state.copy()  # private copies: threads never write neighbouring cache lines
     normal = normal_state.copy()

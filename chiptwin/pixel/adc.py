@@ -209,7 +209,6 @@ def _moments(
     mean, var = mu.copy(), sd * sd + 1.0 / 12.0  # Sheppard: exact to exp(-2π²σ²) inside
     reach = _WINDOW_SIGMA * sd
     near_end = (mu - reach < 0.5) | (mu + reach > top - 0.5)
-    width = np.minimum(2.0 * np.ceil(reach) + 3.0, top + 1.0)
     exact = (sd < _EXACT_BELOW_LSB) | (near_end & (sd < END_CLOSED_FROM_LSB))
     ends = near_end & ~exact
     mean[ends], var[ends] = _end_moments(mu[ends], sd[ends], top)
@@ -217,6 +216,8 @@ def _moments(
     if exact_sums is not None:
         mean[idx], var[idx] = exact_sums(mu[idx], sd[idx])
         return mean, var
+    width = np.zeros_like(mu)  # codes in each exact window (≤ 63: below 3 LSB rms)
+    width[idx] = np.minimum(2.0 * np.ceil(reach[idx]) + 3.0, top + 1.0)
     idx = idx[np.argsort(width[idx], kind="stable")]
     start = 0
     while start < idx.size:  # blocks of similar width, ≤ _CELLS window cells each

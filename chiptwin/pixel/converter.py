@@ -457,10 +457,10 @@ class Converter:
         over the codes of the converter's levels (:func:`~chiptwin.pixel._kernels.table_moments`,
         ±10σ), or :func:`~chiptwin.pixel.adc.adc_expected`'s choice (Sheppard's moments inside
         the range from 2 LSB rms, near the ends from 3 LSB a closed form, exact sums elsewhere),
-        whose exact sums, for a converter with
-        mismatch or comparator noise but no levels, are one numba pass over the ideal
-        transitions ``k + ½`` (≈ 3× faster than NumPy's; a 1-LSB comparator made them a minute
-        of every pyro_1fmol scene). Inputs broadcast to ``(..., *shape)``.
+        whose exact sums, for a converter with mismatch or comparator noise but no levels, are
+        one numba pass over the ideal transitions ``k + ½`` (≈ 3× faster than NumPy's; a 1-LSB
+        comparator made them a minute of every pyro_1fmol scene). Inputs broadcast to
+        ``(..., *shape)``.
         """
         mean_a, var_a = np.broadcast_arrays(np.asarray(mean_V, float), np.asarray(var_V, float))
         if not (np.isfinite(mean_a).all() and np.isfinite(var_a).all() and (var_a >= 0).all()):

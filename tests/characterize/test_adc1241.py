@@ -20,6 +20,7 @@ import pytest
 
 from chiptwin.characterize import adc1241 as a
 from chiptwin.characterize.adc1241.plots import make_plots
+from tests.conftest import require_module
 
 V_MIN, V_MAX = 0.0, 1.0
 
@@ -332,7 +333,7 @@ def test_crosscheck_adctoolbox_dynamic():
     +0.01 dB), ENOB from their SNDR = our enob_sinad_bits within 0.01 bit, SFDR equal within
     0.01 dB to ours on the same rectangular spectrum. Their four-parameter fit's frequency
     equals ours within 1e-9 cycles/sample."""
-    adct = pytest.importorskip("adctoolbox")
+    adct = require_module("adctoolbox")
     bits, rng = 10, np.random.default_rng(21)
     table = injected_table(bits, rng)
     rec = a.bench_records(bits, V_MIN, V_MAX, 1 << 12)
@@ -354,7 +355,7 @@ def test_crosscheck_adctoolbox_ramp_dnl_inl():
     count; INL on transitions): DNL and end-point INL equal to 1e-9 LSB; their best-fit INL is
     the raw INL minus a line in units of the mean width Q̄, ours is in units of the fitted slope
     b, so they differ by INL·(Q̄/b − 1): within 1e-3 LSB here. Missing codes equal."""
-    aout = pytest.importorskip("adctoolbox.aout")
+    aout = require_module("adctoolbox.aout")
     bits, rng = 8, np.random.default_rng(4)
     table = injected_table(bits, rng, missing=(99,), inl_max=1.0)
     rec = a.bench_records(bits, V_MIN, V_MAX, 1 << 17)
@@ -375,7 +376,7 @@ def test_crosscheck_adctoolbox_sine_dnl():
     MATLAB code(1:end-2) alignment). Re-aligned by one code, its DNL equals ours within
     0.01 LSB (the renormalisation over the shorter range) for a 10-bit converter with
     0.25 LSB rms DNL."""
-    aout = pytest.importorskip("adctoolbox.aout")
+    aout = require_module("adctoolbox.aout")
     bits, rng = 10, np.random.default_rng(8)
     table = injected_table(bits, rng)
     rec = a.bench_records(bits, V_MIN, V_MAX, 1 << 19)

@@ -97,7 +97,8 @@ def test_closed_form_is_simpy_where_it_applies(sch, frame_steps):
 
 #: Frame period 40 ns, reset 3, M = 2 conversions of 1, t_int 26: busy 33, idle 7; after a write
 #: the sensor acts 7, 10, 12 and 38 ns later (with frame steps: reset, reset conversions,
-#: integration, signal conversions) or 38 ns later (without), and writes again 40 ns later. Dark block and jobs of 1 frame, memory of 4 frames. A job of the dark block
+#: integration, signal conversions) or 38 ns later (without), and writes again 40 ns later.
+#: Dark block and jobs of 1 frame, memory of 4 frames. A job of the dark block
 #: takes per_frame − per_output, the others per_frame.
 TABLE = [
     # frame_steps, per_frame, per_output, steady

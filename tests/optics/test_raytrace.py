@@ -17,6 +17,7 @@ from chiptwin.optics import _raytrace_kernels as _k
 from chiptwin.optics.layers import Layer, Stack
 from chiptwin.optics.psf import coupling_psf
 from chiptwin.optics.raytrace import rays_for_error, raytrace
+from tests.conftest import require_module
 
 SIGMAS = 4.0
 
@@ -196,8 +197,7 @@ def test_optiland_cross_check():
     """optiland 0.6.3's non-sequential engine (the tracer behind REFERENCE §2's numbers) on a
     slab water 1.33 | 2 µm glass 1.5 | silicon 4.3, isotropic point source, mean-R Fresnel (its
     only mode): transmitted fractions agree within 4 combined SE."""
-    pytest.importorskip("optiland.nonsequential", reason="optiland 0.6.3 not installed "
-                        "(pip install 'chiptwin[raytrace]')")
+    require_module("optiland.nonsequential", "raytrace")
     from optiland.coordinate_system import CoordinateSystem
     from optiland.materials import IdealMaterial
     from optiland.nonsequential import (
