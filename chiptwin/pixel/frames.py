@@ -48,7 +48,11 @@ def chunk_streams(rng: np.random.Generator, n_pixels: int) -> list[np.random.Gen
         for c in range(1, n_chunks)]
 
 
+#: The drawing threads, one pool per thread count, made on first use and kept for the process.
 _POOLS: dict[int, ThreadPoolExecutor] = {}
+# A forked child (multiprocessing's default start method on Linux) inherits the pools but not
+# their threads: its first draw would wait forever on work no thread takes. It makes its own.
+os.register_at_fork(after_in_child=_POOLS.clear)
 
 
 def _pool(threads: int) -> ThreadPoolExecutor:

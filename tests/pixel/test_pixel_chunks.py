@@ -43,6 +43,30 @@ def test_codes_do_not_depend_on_the_thread_count(case):
         assert np.array_equal(codes, runs[0][0]) and state == runs[0][1]
 
 
+def test_a_forked_child_draws_with_threads_of_its_own():
+    """Regression: after the parent drew on 2 threads, a child forked from it (multiprocessing's
+    default on Linux) inherited the thread pool without its threads and waited forever on its
+    first draw. Now it draws, and draws the parent's codes (same seed). Fails by timeout."""
+    import multiprocessing
+
+    kw = {**CASES[0], **READOUT, "threads": 2}
+    want = binned_codes(chunk_streams(np.random.default_rng(5), N_PIXELS), _lam(), **kw)
+
+    def child(queue) -> None:
+        got = binned_codes(chunk_streams(np.random.default_rng(5), N_PIXELS), _lam(), **kw)
+        queue.put(bool(np.array_equal(got, want)))
+
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.SimpleQueue()
+    p = ctx.Process(target=child, args=(queue,))
+    p.start()
+    p.join(60)
+    alive = p.is_alive()
+    if alive:
+        p.kill()
+    assert not alive and p.exitcode == 0 and queue.get() is True
+
+
 def test_chunk_zero_is_the_single_stream_path():
     """Chunk 0 draws from the caller's Generator exactly what one stream over its pixels draws,
     which is the frame-by-frame path's (tests/pixel/test_pixel_frames.py)."""
