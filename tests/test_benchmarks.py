@@ -1,7 +1,8 @@
 """Benchmarks that cannot rot (issue 22, item 4): every script in ``benchmarks/`` runs with
 ``--quick`` (a small size, the same code path) in a process of its own, exits 0 and prints its
-figures. The process is forked from the test worker (:class:`_Forked`): the script runs as
-``__main__`` as ``python SCRIPT --quick`` runs it, without paying the imports again.
+figures. The process is forked from a server that has imported the scripts' libraries
+(:class:`_Forked`): the script runs as ``__main__`` as ``python SCRIPT --quick`` runs it,
+without paying those imports again.
 
 Nothing here times anything: a figure is "printed" when the output holds a number with a unit
 (``0.12 s``, ``848 ns``, ``1.9x``, a JSON key ending in ``_s``) or the script's own table header
@@ -14,20 +15,16 @@ worker's).
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import re
-import runpy
 import shutil
-import signal
 import subprocess
-import sys
-import tempfile
-import time
-import traceback
 from pathlib import Path
 
 import pytest
 
+from tests import _script_child
 from tests.conftest import unavailable
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -54,68 +51,41 @@ def _needs_missing_tools(script: Path) -> bool:
 
 
 class _Forked:
-    """``python SCRIPT --quick`` run in a child forked from this test process: the script runs as
-    ``__main__`` with its own argv, working directory and file descriptors 1 and 2 (what it and
-    any process it starts print is captured), but it inherits the libraries this process has
-    imported and the kernels it has loaded. A fresh interpreter paid 1–3 s of imports per script
-    (py-spy over the suite: 24 CPU-s of the module's 45 s). What a script changes (modules,
-    environment, threads) dies with the child. Processes the script starts itself (a pool, a
-    cold run) are fresh interpreters as before."""
+    """``python SCRIPT --quick``, forked from multiprocessing's fork server
+    (:mod:`tests._script_child`): the server imports the libraries the scripts share once per
+    test process; each script runs in a child forked from it, as ``__main__`` with its own argv,
+    working directory and file descriptors 1 and 2. A fresh interpreter per script paid 1–3 s of
+    imports (py-spy over the suite: 24 CPU-s of the module's 45 s). Not forked from the test
+    worker itself: a child of a worker that had used APyTypes' thread pool hung in it. Processes
+    a script starts itself (a pool, a cold run) are fresh interpreters as before."""
 
-    def __init__(self, script: Path) -> None:
+    def __init__(self, script: Path, folder: Path) -> None:
         self.script = script
-        self._out, self._err = tempfile.TemporaryFile(), tempfile.TemporaryFile()
-        self._deadline = time.monotonic() + TIMEOUT_S
-        sys.stdout.flush()
-        sys.stderr.flush()
-        self._pid = os.fork()
-        if self._pid == 0:
-            self._child()  # never returns
-
-    def _child(self) -> None:
-        code = 1
-        try:
-            os.dup2(self._out.fileno(), 1)
-            os.dup2(self._err.fileno(), 2)
-            sys.stdout = open(1, "w", encoding="utf-8", closefd=False)  # noqa: SIM115
-            sys.stderr = open(2, "w", encoding="utf-8", closefd=False)  # noqa: SIM115
-            os.chdir(ROOT)
-            os.environ.update(PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
-            sys.argv = [str(self.script), "--quick"]
-            sys.path.insert(0, str(self.script.parent))  # as ``python SCRIPT`` puts it first
-            runpy.run_path(str(self.script), run_name="__main__")
-            code = 0
-        except SystemExit as e:
-            if e.code is None or isinstance(e.code, int):
-                code = e.code or 0
-            else:
-                print(e.code, file=sys.stderr)
-        except BaseException:
-            traceback.print_exc()
-        finally:
-            try:
-                sys.stdout.flush()
-                sys.stderr.flush()
-            finally:
-                os._exit(code)
+        self._out, self._err = folder / f"{script.stem}.out", folder / f"{script.stem}.err"
+        self._proc = _server().Process(target=_script_child.run_script, args=(
+            str(script), ["--quick"], str(ROOT), str(self._out), str(self._err)))
+        self._proc.start()
 
     def result(self) -> subprocess.CompletedProcess:
         """Wait for the script (killed after :data:`TIMEOUT_S`) and return what it printed."""
-        while True:
-            pid, status = os.waitpid(self._pid, os.WNOHANG)
-            if pid:
-                code = os.waitstatus_to_exitcode(status)
-                break
-            if time.monotonic() > self._deadline:
-                os.kill(self._pid, signal.SIGKILL)
-                os.waitpid(self._pid, 0)
-                code = -signal.SIGKILL
-                break
-            time.sleep(0.02)
-        out = [f.seek(0) or f.read().decode("utf-8", "replace") for f in (self._out, self._err)]
-        for f in (self._out, self._err):
-            f.close()
-        return subprocess.CompletedProcess([self.script.name, "--quick"], code, *out)
+        self._proc.join(TIMEOUT_S)
+        if self._proc.is_alive():
+            self._proc.kill()
+            self._proc.join()
+        out = [p.read_text("utf-8", "replace") if p.exists() else "" for p in (self._out,
+                                                                               self._err)]
+        return subprocess.CompletedProcess([self.script.name, "--quick"], self._proc.exitcode,
+                                           *out)
+
+
+def _server():
+    """multiprocessing's fork-server context, its server preloading the scripts' imports (started
+    with this process's environment: the scripts' children see ``PYTHONPATH`` and ``MPLBACKEND``
+    as before)."""
+    os.environ.update(PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(["tests._script_child", *_script_child.PRELOAD])
+    return ctx
 
 
 class _Started:
@@ -124,14 +94,14 @@ class _Started:
     know which test it gets next: it starts only its own test's script (each script runs once in
     the session, not once per worker)."""
 
-    def __init__(self, order: list[str], prefetch: bool) -> None:
-        self._order, self._prefetch = order, prefetch
+    def __init__(self, order: list[str], prefetch: bool, folder: Path) -> None:
+        self._order, self._prefetch, self._folder = order, prefetch, folder
         self._children: dict[str, _Forked] = {}
         self._done: dict[str, subprocess.CompletedProcess] = {}
 
     def _start(self, name: str) -> None:
         if name not in self._children:
-            self._children[name] = _Forked(ROOT / "benchmarks" / name)
+            self._children[name] = _Forked(ROOT / "benchmarks" / name, self._folder)
 
     def result(self, name: str) -> subprocess.CompletedProcess:
         self._start(name)
@@ -149,12 +119,13 @@ class _Started:
 
 
 @pytest.fixture(scope="module")
-def started(request):
+def started(request, tmp_path_factory):
     """The scripts, started as the tests ask for them (:class:`_Started`)."""
     order = [item.callspec.params["script"].name for item in request.session.items
              if item.module is request.module and hasattr(item, "callspec")
              and not _needs_missing_tools(item.callspec.params["script"])]
-    runner = _Started(order, prefetch="PYTEST_XDIST_WORKER" not in os.environ)
+    runner = _Started(order, prefetch="PYTEST_XDIST_WORKER" not in os.environ,
+                      folder=tmp_path_factory.mktemp("benchmarks"))
     yield runner
     runner.close()
 
@@ -181,3 +152,23 @@ def test_benchmark_runs_quick_and_prints_its_figures(script: Path,
     assert (header and header in out) or FIGURE.search(out), (
         f"{script.name} --quick printed no figure (a number with a unit"
         f"{' or ' + repr(header) if header else ''}):\n{out[-2000:]}")
+
+
+def test_a_forked_script_reports_what_python_script_would(tmp_path):
+    """The runner itself: a script's argv, output (its own and its children's), exit code, a
+    ``sys.exit`` message and an uncaught exception's traceback come back as from a subprocess."""
+    script = tmp_path / "s.py"
+    script.write_text(
+        "import subprocess, sys\n"
+        "print('argv', sys.argv[1:], flush=True)\n"
+        "subprocess.run([sys.executable, '-c', 'print(\"child\")'])\n"
+        "if sys.argv[1] == '--quick':\n"
+        "    raise RuntimeError('boom')\n")
+    done = _Forked(script, tmp_path).result()
+    assert done.returncode == 1 and done.stdout == "argv ['--quick']\nchild\n"
+    assert "RuntimeError: boom" in done.stderr
+    script.write_text("import sys\nsys.exit('bad usage')\n")
+    done = _Forked(script, tmp_path).result()
+    assert done.returncode == 1 and done.stderr == "bad usage\n"
+    script.write_text("import sys\nsys.exit(3)\n")
+    assert _Forked(script, tmp_path).result().returncode == 3
