@@ -232,6 +232,24 @@ def _table_rows(volts, out, v_min, lsb, gain, offset, c_gain, c_offset, dither, 
 
 
 @NJIT
+def _count_below(x: float, levels: np.ndarray, lut: np.ndarray, base: int, r: int,
+                 inclusive: bool) -> int:
+    """``#{levels of ramp r < x}`` (``≤ x`` if ``inclusive``): ``np.searchsorted`` of the
+    levels, side ``left`` (``right``), without its binary search: the LUT cell of ``x`` counts
+    the levels below the cell, then a walk over the cell's level(s). The last column's +inf
+    stops the walk."""
+    xc = min(max(x, base / CELLS_PER_LSB), (base + lut.shape[1] - 1) / CELLS_PER_LSB)
+    k = np.int64(lut[r, int(math.floor(xc * CELLS_PER_LSB)) - base, 1])
+    if inclusive:
+        while levels[r, k] <= x:
+            k += 1
+    else:
+        while levels[r, k] < x:
+            k += 1
+    return k
+
+
+@NJIT
 def table_moments(mu, sd, rows, lut, window, out_mean, out_var):
     """Mean and variance of the code for ``X ~ N(mu[i], sd[i]²)`` on the levels of ramp
     ``rows[i]``; ``lut = (levels, lut, base)`` as in :func:`table_code`.
@@ -241,15 +259,14 @@ def table_moments(mu, sd, rows, lut, window, out_mean, out_var):
     on the code of ``mu`` for precision. ``sd = 0``: the code of ``mu`` (:func:`table_code`).
     """
     levels = lut[0]
-    n = levels.shape[1] - 1
     for i in range(mu.size):
         r, m, s = rows[i], mu[i], sd[i]
         centre = table_code(m, levels, lut[1], lut[2], r)
         if s == 0.0:
             out_mean[i], out_var[i] = float(centre), 0.0
             continue
-        j0 = np.searchsorted(levels[r, :n], m - window * s, side="left")
-        j1 = np.searchsorted(levels[r, :n], m + window * s, side="right")
+        j0 = _count_below(m - window * s, levels, lut[1], lut[2], r, False)
+        j1 = _count_below(m + window * s, levels, lut[1], lut[2], r, True)
         s_prev, m1, m2 = 1.0, 0.0, 0.0
         scale = 1.0 / (s * math.sqrt(2.0))
         for k in range(j0, j1 + 1):

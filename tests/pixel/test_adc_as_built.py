@@ -606,3 +606,28 @@ def test_expected_on_the_ideal_table_is_the_numpy_sums():
     want_mean, want_var = _moments(mu, sd, 1023.0)
     assert np.allclose(got_mean, want_mean, rtol=1e-12, atol=1e-12)
     assert np.allclose(got_var, want_var, rtol=1e-12, atol=1e-12)
+
+
+def test_table_window_bounds_are_searchsorted():
+    """``table_moments`` bounds its window of levels through the search LUT
+    (``_kernels._count_below``) instead of two binary searches: the counts are
+    ``np.searchsorted``'s, side left and right, on random tables, a table with repeated levels
+    and codes narrower than a LUT cell (several levels in one cell), at inputs on the levels,
+    between them and far past both ends."""
+    from chiptwin.pixel import _kernels
+    from chiptwin.pixel.converter import _padded, _search_lut
+
+    rng = np.random.default_rng(11)
+    tables = [_random_table(rng, BITS) for _ in range(3)]
+    crowded = np.sort(np.concatenate([np.arange(2**BITS - 1 - 40) + 0.5,
+                                      np.full(10, 100.25), 200.0 + np.linspace(0, 0.3, 30)]))
+    tables.append(crowded)
+    levels = np.array(tables)
+    lut, base = _search_lut(levels)
+    padded = _padded(levels)
+    for r, t in enumerate(tables):
+        xs = np.concatenate([t, np.nextafter(t, np.inf), np.nextafter(t, -np.inf),
+                             rng.uniform(-50.0, 2.0**BITS + 50.0, 2000), [-1e300, 1e300]])
+        for inclusive, side in ((False, "left"), (True, "right")):
+            got = [_kernels._count_below(x, padded, lut, base, r, inclusive) for x in xs]
+            assert np.array_equal(got, np.searchsorted(t, xs, side=side)), (r, side)
