@@ -46,9 +46,12 @@ of the exact table sums: the series within 1e-12 LSB² (measured ≤ 2e-13, comp
 ``GH_REL_TOL·σ_y² + GH_ABS_TOL_LSB2`` (measured worst 0.03 LSB² at σ_y = 20 LSB with no
 comparator noise; below 1e-3 LSB² wherever σ_y ≤ 4× the white rms, to 1e-8 at ≤ 2×). The CMS
 moments agree with a Monte Carlo of the binned kernel within its standard errors (same test).
-Cost: Gauss–Hermite ≈ 35 µs a pixel-frame (≈ 150 table sums of ≈ 20 codes), ~70× the linear
-ideal model; the series ≈ 1.5 µs (pyro_1fmol with a 1-LSB comparator, expected level: 0.46 s
-against 19.4 s, one run each).
+Cost: Gauss–Hermite ≈ 150–580 table sums a pixel-frame (96 or 192 nodes; the reset side's
+kTC nodes once per pixel, :func:`_centred_reset`), each ≈ 0.2 µs at 0.13 LSB of white noise:
+``chiptwin run pyro_1fmol`` with 0.2 LSB of DNL takes 19 s against 4 s ideal (it took 32 s,
+1.75 GB, before the quadrature ran in slices of :data:`GH_SLICE_VALUES` and the window's
+bounds came from the search LUT; 245 MB now). The series ≈ 1.5 µs a pixel-frame (pyro_1fmol
+with a 1-LSB comparator, expected level: 0.46 s against 19.4 s, one run each).
 """
 
 from __future__ import annotations
@@ -69,6 +72,12 @@ GH_NODES: tuple[tuple[float, int], ...] = ((2.0, 48), (4.0, 96), (math.inf, 192)
 #: shared variance σ_y², plus :data:`GH_ABS_TOL_LSB2` (see the module's Accuracy).
 GH_REL_TOL: float = 5e-3
 GH_ABS_TOL_LSB2: float = 1e-3
+
+#: Values (nodes × elements) of one slice of a quadrature: its temporaries, a dozen arrays of
+#: that many, stay ≈ 100 MB whatever the block of frames. Unsliced, a block of 1,024 frames of
+#: the reference chip's 128 pixels at 192 nodes made 25 M values an array: a 1.75 GB peak for
+#: a run its memory estimate put at 443 MiB (pyro_1fmol with 0.2 LSB of DNL).
+GH_SLICE_VALUES: int = 1 << 20
 
 
 def _gh(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -105,19 +114,33 @@ def mean_of_var(conv: Converter, mean_V: NDArray[np.float64], shared_sd_V: NDArr
                            for a in (mean_V, shared_sd_V))
     sigma, u = shared_sd_V * slope, _white_lsb(conv, white_var_V, slope)
     series = _on_series(conv, x, u, 10.0 * (sigma + u))
+    mean_f, sd_f = (np.ascontiguousarray(a).reshape(-1) for a in (mean_V, shared_sd_V))
     return _by_series(conv, series, lambda: _series_mean_of_var(x[series], sigma[series],
                                                                 u[series]),
-                      lambda sub, rest: _gh_mean_of_var(sub, mean_V[rest], shared_sd_V[rest],
-                                                        white_var_V))
+                      lambda sub, rest: _nodes_for(sub, sd_f[rest], white_var_V),
+                      lambda sub, idx, nodes: _gh_mean_of_var(sub, mean_f[idx], sd_f[idx],
+                                                              white_var_V, nodes))
 
 
 def _gh_mean_of_var(conv: Converter, mean_V: NDArray[np.float64],
-                    shared_sd_V: NDArray[np.float64], white_var_V: float) -> NDArray[np.float64]:
-    """:func:`mean_of_var` by Gauss–Hermite over ``y``, :data:`GH_NODES` nodes."""
-    z, w = _nodes_for(conv, shared_sd_V, white_var_V)
+                    shared_sd_V: NDArray[np.float64], white_var_V: float,
+                    nodes: tuple | None = None) -> NDArray[np.float64]:
+    """:func:`mean_of_var` by Gauss–Hermite over ``y``: ``nodes`` (z, w), by default
+    :data:`GH_NODES` for these elements."""
+    z, w = _nodes_for(conv, shared_sd_V, white_var_V) if nodes is None else nodes
     zz = z.reshape((-1,) + (1,) * np.ndim(mean_V))
     _, v = conv.expected(mean_V + shared_sd_V * zz, white_var_V)
-    return np.tensordot(w, v, axes=1)
+    return _node_sum(w, v)
+
+
+def _node_sum(w: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``Σ_n w[n]·v[n]`` over the first axis, node after node: an element's sum has the same bits
+    whatever else the array holds (BLAS's dot, ``np.tensordot``, orders its sums by the array's
+    length, so a sliced quadrature would differ from a whole one in the last bits)."""
+    out = w[0] * v[0]
+    for n in range(1, w.size):
+        out += w[n] * v[n]
+    return out
 
 
 def cms_moments(conv: Converter, mean_e: ArrayLike, shot_var_e2: ArrayLike, *, ktc_e: float,
@@ -179,24 +202,42 @@ def _shared_ktc_cov(conv: Converter, s_mu: NDArray[np.float64], shot_V2: NDArray
     u_s, u_r = _white_lsb(conv, shot_V2 + white, slope), _white_lsb(conv, white, slope)
     series = (_on_series(conv, a, u_r, 10.0 * (kappa + u_s))
               & _on_series(conv, b, u_r, 10.0 * (kappa + u_r)))
-    s_mu, ped_b, shot_b = (np.broadcast_to(v, a.shape) for v in (s_mu, ped, shot_V2))
+    s_f, shot_f = (np.ascontiguousarray(np.broadcast_to(v, a.shape)).reshape(-1)
+                   for v in (s_mu, shot_V2))
+    reset: dict[int, NDArray[np.float64]] = {}  # f_r − E f_r per pixel at the nodes, made once
+
+    def quadrature(sub: Converter, idx: NDArray[np.int64], nodes: tuple) -> NDArray[np.float64]:
+        if not reset:
+            reset[0] = _centred_reset(conv, ped, k_sd, white, nodes)
+        return _gh_ktc_cov(sub, s_f[idx], shot_f[idx], reset[0][:, idx % conv.n_pixels], k_sd,
+                           white, nodes)
+
     return _by_series(
         conv, series,
         lambda: _series_ktc_cov(a[series], b[series], kappa[series], u_s[series], u_r[series]),
-        lambda sub, rest: _gh_ktc_cov(sub, s_mu[rest], shot_b[rest], ped_b[rest], k_sd, white))
+        lambda sub, rest: _nodes_for(sub, np.full(rest.size, k_sd), white), quadrature)
+
+
+def _centred_reset(conv: Converter, ped: NDArray[np.float64], k_sd: float, white: float,
+                   nodes: tuple) -> NDArray[np.float64]:
+    """``f_r(k) − E_k f_r`` at the nodes, per pixel (``(nodes, n_pixels)``): the reset side's
+    code mean given the kTC draw is the same in every frame, so it is summed once per pixel,
+    not once per pixel-frame (half the table sums of :func:`_gh_ktc_cov`)."""
+    z, w = nodes
+    f_r, _ = conv.expected(ped + k_sd * z.reshape((-1,) + (1,) * ped.ndim), white)
+    f_r = f_r.reshape(z.size, conv.n_pixels)
+    return f_r - _node_sum(w, f_r)
 
 
 def _gh_ktc_cov(conv: Converter, s_mu: NDArray[np.float64], shot_V2: NDArray[np.float64],
-                ped: NDArray[np.float64], k_sd: float, white: float) -> NDArray[np.float64]:
-    """:func:`_shared_ktc_cov` by Gauss–Hermite over ``k``."""
-    z, w = _nodes_for(conv, np.full(ped.shape, k_sd), white)
-    zz = z.reshape((-1,) + (1,) * s_mu.ndim)
-    g, _ = conv.expected(s_mu + k_sd * zz, shot_V2 + white)
-    f_r, _ = conv.expected(ped + k_sd * z.reshape((-1,) + (1,) * ped.ndim), white)
-    g = g - np.tensordot(w, g, axes=1)
-    f_r = f_r - np.tensordot(w, f_r, axes=1)
-    f_r = f_r.reshape((z.size,) + (1,) * (s_mu.ndim - ped.ndim) + ped.shape)
-    return np.tensordot(w, g * f_r, axes=1)
+                f_r: NDArray[np.float64], k_sd: float, white: float, nodes: tuple
+                ) -> NDArray[np.float64]:
+    """:func:`_shared_ktc_cov` by Gauss–Hermite over ``k`` on a row of elements (``conv`` their
+    converters): ``f_r`` the reset side's centred code mean at the nodes
+    (:func:`_centred_reset`, one column per element)."""
+    z, w = nodes
+    g, _ = conv.expected(s_mu + k_sd * z[:, None], shot_V2 + white)
+    return _node_sum(w, (g - _node_sum(w, g)) * f_r)
 
 
 # --- the sawtooth's series ---------------------------------------------------------------------
@@ -224,18 +265,24 @@ def _on_series(conv: Converter, x: NDArray[np.float64], u: NDArray[np.float64],
     return (x - reach >= 0.5) & (x + reach <= top - 0.5)
 
 
-def _by_series(conv: Converter, series: NDArray[np.bool_], by_series, by_quadrature
+def _by_series(conv: Converter, series: NDArray[np.bool_], by_series, nodes_for, by_quadrature
                ) -> NDArray[np.float64]:
-    """An array of ``series.shape``: ``by_series()`` on the ``series`` elements,
-    ``by_quadrature(sub, rest)`` on the others (``sub`` their converters, in a row)."""
+    """An array of ``series.shape``: ``by_series()`` on the ``series`` elements; on the others
+    one node set ``nodes_for(sub, rest)`` (``rest`` their flat indices, C order, ``sub`` their
+    converters in a row), then ``by_quadrature(sub, idx, nodes)`` slice by slice
+    (:data:`GH_SLICE_VALUES` values of nodes × elements a slice)."""
     out = np.empty(series.shape)
     if series.any():
         out[series] = by_series()
-    rest = ~series
-    if rest.any():
-        n_pix = conv.n_pixels
-        pixel = np.broadcast_to(np.arange(n_pix).reshape(conv.shape), series.shape)[rest]
-        out[rest] = by_quadrature(conv.at(pixel), rest)
+    rest = np.flatnonzero(~series)
+    if rest.size:
+        pixel = rest % conv.n_pixels  # the trailing axes of series.shape are the converters'
+        nodes = nodes_for(conv.at(pixel), rest)
+        flat = out.reshape(-1)
+        step = max(1, GH_SLICE_VALUES // nodes[0].size)
+        for lo in range(0, rest.size, step):
+            part = slice(lo, lo + step)
+            flat[rest[part]] = by_quadrature(conv.at(pixel[part]), rest[part], nodes)
     return out
 
 
