@@ -80,15 +80,17 @@ CASCADE_WINDOW_S: float = 0.03
 AS_BUILT_SERIES_S: float = 1.4e-6
 #: Per pixel-frame, pass and node of the same moments by Gauss–Hermite (a transition table, a
 #: dark level within reach of code 0, white noise below 1/64 LSB), and per code summed there.
-#: Unit: s. Fitted to pyro_1fmol (194,560 pixel-frames, 2 passes) by the quadrature: with a
-#: 1-LSB comparator 19.4 s (48 nodes, 25 codes), with DNL 0.2 LSB rms 31 s (192 nodes, 7 codes).
-AS_BUILT_NODE_S: float = 1.7e-7
-AS_BUILT_CODE_S: float = 3.5e-8
+#: Unit: s. Fitted to pyro_1fmol with DNL 0.2 LSB rms (194,560 pixel-frames, 2 passes; the
+#: pixel stage's time, one run each): 16.8 s (192 nodes, 7 codes) and, with a 2-LSB comparator,
+#: 24.6 s (48 nodes, 45 codes). Before the window came from the search LUT and the reset side
+#: was summed once per pixel: 1.7e-7 and 3.5e-8 (31 s for the first).
+AS_BUILT_NODE_S: float = 2.2e-8
+AS_BUILT_CODE_S: float = 2.9e-8
 #: Per pixel-frame, pass and node near the range's ends from 3 LSB of white rms on the ideal
 #: transitions: the moments' closed form (chiptwin.pixel.adc._end_moments) instead of a window
-#: of codes. Unit: s (ccd_two_wells shortened, a 256-LSB comparator: 1.25 s a call over ≈ 8 M
-#: element-nodes).
-AS_BUILT_END_S: float = 1.6e-7
+#: of codes, with :data:`AS_BUILT_NODE_S`. Unit: s (ccd_two_wells, a 256-LSB comparator: the
+#: pixel stage's 6.1 s over 2 passes × 48 nodes × 172,032 pixel-frames, one run).
+AS_BUILT_END_S: float = 3.5e-7
 #: The factor within which the estimate is held of measured wall time (tests/config/test_cost.py).
 ESTIMATE_FACTOR: float = 10.0
 #: Per worker of a study's process pool: spawn, import numpy/numba/chiptwin, load the kernels.
