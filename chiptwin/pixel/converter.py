@@ -259,8 +259,8 @@ class Converter:
     pixel_gain: NDArray[np.float64] | None = None
     pixel_offset_lsb: NDArray[np.float64] | None = None
     shape: tuple[int, ...] | None = None
-    #: ``(padded levels, LUT, base)`` already made from ``levels`` (by :meth:`at`, for a subset
-    #: of another converter's pixels): not checked or made again.
+    #: ``(padded levels, LUT, base)`` made from ``levels`` on construction; :meth:`at` hands a
+    #: subset of the pixels its parent's, which are not checked or made again.
     _tables: tuple | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
@@ -282,23 +282,23 @@ class Converter:
         levels, lut, base = _NO_LEVELS, _NO_LUT, 0
         rows = np.zeros(n, np.int64)
         if self.levels is not None:
-            if self._tables is None:
+            tables = self._tables
+            if tables is not None and getattr(self.levels, "base", None) is not tables[0]:
+                tables = None  # not the levels they were made from (a dataclasses.replace)
+            if tables is None:
                 levels = np.ascontiguousarray(np.atleast_2d(np.asarray(self.levels, np.float64)))
                 for r in range(levels.shape[0]):
                     check_transition_table(levels[r], self.bits, f"levels[{r}]")
-            else:
-                levels = self.levels
+                lut, base = _search_lut(levels)
+                tables = (_padded(levels), lut, base)
+            levels, lut, base = tables
+            object.__setattr__(self, "_tables", tables)
             if self.table_of_pixel is not None:
                 rows = np.ascontiguousarray(self.table_of_pixel, np.int64).reshape(-1)
                 if rows.size != n or rows.min() < 0 or rows.max() >= levels.shape[0]:
                     raise ValueError(
                         f"table_of_pixel must hold {n} rows of levels in [0, {levels.shape[0] - 1}]"
                     )
-            if self._tables is None:
-                lut, base = _search_lut(levels)
-                levels = _padded(levels)
-            else:
-                levels, lut, base = self._tables
             object.__setattr__(self, "levels", levels[:, :-1])  # a view: stored once
         noise = float(self.comparator_noise_lsb)
         object.__setattr__(self, "_conv", (True, gain, offset, rows, noise, levels, lut, base))
@@ -397,7 +397,7 @@ class Converter:
         idx = np.asarray(pixels, np.int64).reshape(-1)
         if idx.size and (idx.min() < 0 or idx.max() >= self.n_pixels):
             raise ValueError(f"pixels must be in [0, {self.n_pixels - 1}]")
-        _, gain, offset, rows, _, padded, lut, base = self._conv  # type: ignore[attr-defined]
+        _, gain, offset, rows, *_ = self._conv  # type: ignore[attr-defined]
         levels = self.levels is not None
         return Converter(
             self.bits, self.v_min_V, self.v_max_V, self.offset_lsb, self.gain_error,
@@ -405,7 +405,7 @@ class Converter:
             table_of_pixel=rows[idx] if levels else None,
             pixel_gain=None if self.pixel_gain is None else gain[idx],
             pixel_offset_lsb=None if self.pixel_offset_lsb is None else offset[idx],
-            shape=(idx.size,), _tables=(padded, lut, base) if levels else None)
+            shape=(idx.size,), _tables=self._tables)
 
     def check_pixels(self, n_pixels: int, name: str = "converter") -> None:
         """Refuse a converter that is not ideal and describes another number of pixels."""

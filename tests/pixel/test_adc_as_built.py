@@ -631,3 +631,23 @@ def test_table_window_bounds_are_searchsorted():
         for inclusive, side in ((False, "left"), (True, "right")):
             got = [_kernels._count_below(x, padded, lut, base, r, inclusive) for x in xs]
             assert np.array_equal(got, np.searchsorted(t, xs, side=side)), (r, side)
+
+
+def test_converters_of_a_subset_share_the_tables_and_a_replaced_table_is_made_again():
+    """``Converter.at`` hands its parent's checked levels and LUT on (made once, not per call);
+    ``dataclasses.replace`` with other levels makes theirs (a stale LUT would convert with the
+    old table)."""
+    import dataclasses
+
+    rng = np.random.default_rng(3)
+    one, two = (_random_table(rng, BITS)[None, :] for _ in range(2))
+    conv = Converter(BITS, 0.0, 1.0, levels=one, shape=(2,), pixel_gain=np.array([1.0, 1.01]))
+    sub = conv.at([1])
+    assert sub._conv[5] is conv._conv[5] and sub._conv[6] is conv._conv[6]
+    volts = rng.uniform(0.0, 1.0, (500, 1))
+    assert np.array_equal(sub.convert(volts), conv.convert(np.hstack([volts, volts]))[:, 1:])
+    other = dataclasses.replace(conv, levels=two)
+    fresh = Converter(BITS, 0.0, 1.0, levels=two, shape=(2,), pixel_gain=np.array([1.0, 1.01]))
+    assert other._conv[6] is not conv._conv[6]
+    volts2 = rng.uniform(0.0, 1.0, (500, 2))
+    assert np.array_equal(other.convert(volts2), fresh.convert(volts2))

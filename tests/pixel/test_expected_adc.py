@@ -177,7 +177,6 @@ def test_quadrature_in_slices_is_the_whole_and_holds_little_memory(monkeypatch):
     kw = dict(ktc_e=450.0, read_noise_e=100.0, cg_V=0.16e-6, pedestal_V=0.1, n_samples=4,
               true_cds=True)
     assert expected_adc.node_count(kw["ktc_e"], kw["read_noise_e"]) == 192
-    assert conv.at([3, 1])._conv[5:] == conv._conv[5:]  # a slice's converters share the tables
     expected_adc.cms_moments(conv, mean_e[:1], mean_e[:1], **kw)  # kernels loaded before
     monkeypatch.setattr(expected_adc, "GH_SLICE_VALUES", 1 << 16)
     tracemalloc.start()
