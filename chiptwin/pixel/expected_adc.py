@@ -195,7 +195,8 @@ def _shared_ktc_cov(conv: Converter, s_mu: NDArray[np.float64], shot_V2: NDArray
     """``Cov(S̄, R̄) = Cov_k(g(k), f_r(k))`` over the kTC draw both sides share: ``g(k)`` the
     signal code's mean given ``k`` (charge and white noise summed exactly), ``f_r(k)`` the reset
     code's. Unit: LSB². The sawtooth's series where :func:`mean_of_var` takes it (both sides
-    inside the range), Gauss–Hermite elsewhere."""
+    inside the range), Gauss–Hermite elsewhere. ``ped`` (the reset level) has the converters'
+    shape: the same in every frame."""
     a, slope = conv.input_codes(s_mu)
     b = np.broadcast_to(conv.input_codes(ped)[0], a.shape)
     kappa = k_sd * slope
