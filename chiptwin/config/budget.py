@@ -32,7 +32,7 @@ import numpy as np
 
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
-from chiptwin.constants import MAX_TIME_S, N_A, Q_E, s_to_ticks
+from chiptwin.constants import MAX_TIME_S, N_A, Q_E, ZERO_C_K, s_to_ticks
 from chiptwin.limits import (
     COUPLING_DROP_RTOL,
     POISSON_LAM_MAX,
@@ -46,6 +46,11 @@ from chiptwin.pixel.frames import code_dtype
 #: 35 MiB (tracemalloc) for pyro_1fmol's two-layer stack with its 20 µm disc, 18 MiB for
 #: crosstalk_microarray and jssc2006_faceplate; one run makes them one after the other. Unit: B.
 STACK_PSF_BYTES: int = 48 << 20
+#: The converter-as-built's Gauss–Hermite quadrature (a transition table, the range's ends, white
+#: noise below the series' floor): its slices of ``GH_SLICE_VALUES`` node values
+#: (chiptwin.pixel.expected_adc), float64, this many arrays at once: measured 83 MiB
+#: (tracemalloc, pyro_1fmol with 0.2 LSB of DNL against without) = 10.4 arrays of 8 MiB.
+QUADRATURE_ARRAYS: int = 12
 
 #: Default memory budget of one run. Unit: GiB.
 MEMORY_BUDGET_GIB: float = 8.0
@@ -313,6 +318,43 @@ def _kernel_radius(s: Scenario) -> int:
     return radius
 
 
+@dataclass(frozen=True)
+class Quadrature:
+    """How :mod:`chiptwin.pixel.expected_adc` takes a scene's converter-as-built moments by
+    Gauss–Hermite: ``nodes`` a pixel-frame and pass, the white rms ``u`` (LSB) whose ±10 ``u``
+    window of codes each node sums, ``table`` (a transition table: always the window; else from
+    ``END_CLOSED_FROM_LSB`` of ``u`` the ends' closed form instead)."""
+
+    nodes: int
+    u: float
+    table: bool
+
+
+def as_built_quadrature(s: Scenario) -> Quadrature | None:
+    """The quadrature of ``s``'s converter as built, or None where none runs (no ``[chip.adc]``
+    effect, or the sawtooth's series answers every pixel-frame). Gauss–Hermite when the converter
+    has a transition table, its white noise (read + comparator) is below the series' floor, or
+    the dark level sits within ``10 (u + kTC)`` of code 0 (every dark pixel-frame then leaves the
+    series: ccd_two_wells with a 128-LSB comparator, its pedestal at code 1,311); its nodes by
+    the kTC's ratio to ``u`` (:func:`~chiptwin.pixel.expected_adc.node_count`)."""
+    from chiptwin.pixel.converter import AsBuilt
+    from chiptwin.pixel.expected_adc import SERIES_MIN_WHITE_LSB, node_count
+    from chiptwin.pixel.sensor import conversion_gain_uV_per_e, ktc_noise_e
+
+    a, p = s.chip.adc, s.chip.pixel
+    if not a.as_built_keys:
+        return None
+    per_lsb = (1.0 + a.gain_error) / ((a.v_max_V - a.v_min_V) / 2**a.bits)  # LSB per volt
+    cg_V = conversion_gain_uV_per_e(p.capacitance_fF) * 1e-6
+    u = math.hypot(p.read_noise_e * cg_V * per_lsb, a.comparator_noise_total_lsb)
+    ktc = ktc_noise_e(p.capacitance_fF, p.temperature_C + ZERO_C_K) * cg_V * per_lsb
+    dark = (p.pedestal_V - a.v_min_V) * per_lsb + a.offset_error_lsb
+    table = AsBuilt.from_keys(a).shaped
+    if table or u < SERIES_MIN_WHITE_LSB or dark - 10.0 * (u + ktc) < 0.5:
+        return Quadrature(node_count(ktc, u), u, table)
+    return None
+
+
 def memory_estimate(s: Scenario) -> list[MemoryTerm]:
     """The peak a run of ``s`` holds, term by term (before :data:`MARGIN`). Unit: bytes."""
     c = s.chip
@@ -341,6 +383,13 @@ def memory_estimate(s: Scenario) -> list[MemoryTerm]:
     terms.append(MemoryTerm(f"the DSP's largest job, {job} frames × {pixels} pixels × {stacked} B "
                             "(codes stacked for CMS)", job * pixels * stacked,
                             f"chip.dsp.n_dark_frames, {size}, chip.dsp.cms_samples"))
+    if as_built_quadrature(s) is not None:
+        from chiptwin.pixel.expected_adc import GH_SLICE_VALUES
+
+        terms.append(MemoryTerm(f"the converter-as-built quadrature's slices, "
+                                f"{QUADRATURE_ARRAYS} × {GH_SLICE_VALUES} values × 8 B",
+                                QUADRATURE_ARRAYS * GH_SLICE_VALUES * 8,
+                                "chip.adc (" + ", ".join(c.adc.as_built_keys) + ")"))
     if s.assay.kind != "flux" and s.optics.coupling == "contact" and s.optics.stated_stack:
         terms.append(MemoryTerm("the stack psf's profile and quadrature (the psf level through "
                                 "a stated stack, the summary's per-law figures)",

@@ -38,10 +38,10 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-from chiptwin.config.budget import max_coupling, max_site_photons, n_sites
+from chiptwin.config.budget import as_built_quadrature, max_coupling, max_site_photons, n_sites
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
-from chiptwin.constants import ZERO_C_K, s_to_ticks
+from chiptwin.constants import s_to_ticks
 
 #: Per run: scene preparation, coupling, outputs gathered (not the interpreter's start). Unit: s.
 RUN_S: float = 0.02
@@ -167,38 +167,26 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
 
 
 def _as_built_term(s: Scenario, pixel_frames: int) -> CostTerm:
-    """The converter-as-built's expected moments: by the series, or by Gauss–Hermite (its nodes
-    by the kTC's ratio to the white rms ``u``; up to 4× more with a wide shot noise) over a
-    window of ±10 ``u`` when the converter has a transition table, its white noise is below the
-    series' floor, or the dark level sits within ``10 (u + kTC)`` of code 0 (every dark
-    pixel-frame then leaves the series: ccd_two_wells with a 128-LSB comparator, its pedestal at
-    code 1,311); there, from 3 LSB of ``u`` on the ideal transitions, the ends' closed form
-    instead of the window."""
+    """The converter-as-built's expected moments: by the series, or by Gauss–Hermite where
+    :func:`~chiptwin.config.budget.as_built_quadrature` says (its nodes; up to 4× more with a
+    wide shot noise) over a window of ±10 ``u``, or from 3 LSB of ``u`` on the ideal transitions
+    the ends' closed form instead of the window."""
     from chiptwin.pixel.adc import END_CLOSED_FROM_LSB
-    from chiptwin.pixel.converter import AsBuilt
-    from chiptwin.pixel.expected_adc import SERIES_MIN_WHITE_LSB, node_count
-    from chiptwin.pixel.sensor import conversion_gain_uV_per_e, ktc_noise_e
 
-    a, p = s.chip.adc, s.chip.pixel
-    per_lsb = (1.0 + a.gain_error) / ((a.v_max_V - a.v_min_V) / 2**a.bits)  # LSB per volt
-    cg_V = conversion_gain_uV_per_e(p.capacitance_fF) * 1e-6
-    u = math.hypot(p.read_noise_e * cg_V * per_lsb, a.comparator_noise_total_lsb)
-    ktc = ktc_noise_e(p.capacitance_fF, p.temperature_C + ZERO_C_K) * cg_V * per_lsb
-    dark = (p.pedestal_V - a.v_min_V) * per_lsb + a.offset_error_lsb
-    table = AsBuilt.from_keys(a).shaped
+    a = s.chip.adc
     keys = "chip.adc (" + ", ".join(a.as_built_keys) + "), chip.pixel.read_noise_e"
-    if table or u < SERIES_MIN_WHITE_LSB or dark - 10.0 * (u + ktc) < 0.5:
-        nodes = node_count(ktc, u)
-        if table or u < END_CLOSED_FROM_LSB:
-            codes = 2 * math.ceil(10.0 * u) + 3
+    q = as_built_quadrature(s)
+    if q is not None:
+        if q.table or q.u < END_CLOSED_FROM_LSB:
+            codes = 2 * math.ceil(10.0 * q.u) + 3
             each = AS_BUILT_NODE_S + codes * AS_BUILT_CODE_S
             what = f"{codes} codes × {AS_BUILT_CODE_S:g} s"
         else:  # near code 0 the moments' closed form, not a window of codes
             each = AS_BUILT_NODE_S + AS_BUILT_END_S
             what = f"the ends' closed form {AS_BUILT_END_S:g} s"
         return CostTerm(f"{pixel_frames:.3g} pixel-frames of the converter as built by "
-                        f"Gauss–Hermite: 2 passes × {nodes} nodes × ({AS_BUILT_NODE_S:g} s + "
-                        f"{what})", pixel_frames * 2 * nodes * each, keys)
+                        f"Gauss–Hermite: 2 passes × {q.nodes} nodes × ({AS_BUILT_NODE_S:g} s + "
+                        f"{what})", pixel_frames * 2 * q.nodes * each, keys)
     return CostTerm(f"{pixel_frames:.3g} pixel-frames of the converter as built by the series × "
                     f"{AS_BUILT_SERIES_S:g} s", pixel_frames * AS_BUILT_SERIES_S, keys)
 

@@ -169,3 +169,24 @@ def test_footprint_limit_converges():
     with pytest.raises(Exception, match="height_um"):
         load_scenario(SCENARIOS / "pyro_1fmol.toml", [
             "sites.footprint_radius_um=125", "sites.height_um=4.9"])
+
+
+@pytest.mark.parametrize(("name", "sets", "nodes"), [
+    ("pyro_1fmol", [], None),  # the ideal converter
+    ("pyro_1fmol", ["chip.adc.comparator_noise_uV=122.07"], None),  # the series answers
+    ("pyro_1fmol", ["chip.adc.dnl_rms_lsb=0.2"], 192),  # a table: the quadrature
+    ("ccd_two_wells", ["chip.adc.comparator_noise_lsb=128"], 48),  # the dark level near code 0
+])
+def test_the_quadrature_has_its_memory_term_and_its_cost(name, sets, nodes):
+    """Where the converter as built goes through Gauss–Hermite the memory estimate counts its
+    slices (QUADRATURE_ARRAYS × GH_SLICE_VALUES float64; tests/pixel/test_expected_adc.py holds
+    a traced quadrature below it) and the wall estimate its nodes; nowhere else."""
+    s = load_scenario(SCENARIOS / f"{name}.toml", sets)
+    q = B.as_built_quadrature(s)
+    assert (q.nodes if q else None) == nodes
+    terms = [t.what for t in B.memory_estimate(s)]
+    assert any("converter-as-built quadrature" in w for w in terms) == (q is not None), terms
+    from chiptwin.config import cost
+
+    as_built = [t.what for t in cost.wall_estimate(s) if "as built" in t.what]
+    assert (f"{nodes} nodes" in as_built[0]) if q else (not as_built or "series" in as_built[0])
