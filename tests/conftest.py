@@ -75,9 +75,9 @@ def unavailable(what: str) -> NoReturn:
     """A test's tool is missing (``what`` says which and how to install it): skip on a
     developer's machine, fail under ``CI=true``, where scripts/test.sh installs every tool — the
     suite's only skips besides test_kill's ``/proc`` (README, "Quick start")."""
-    if in_ci():
-        pytest.fail(f"CI=true and a test cannot run: {what}", pytrace=False)
-    pytest.skip(what)
+    if not in_ci():
+        pytest.skip(what)
+    pytest.fail(f"CI=true and a test cannot run: {what}", pytrace=False)
 
 
 def require_module(name: str, extra: str = "test") -> ModuleType:

@@ -105,6 +105,14 @@ CONVERT_BLOCK: int = 256
 CELLS_PER_LSB: float = 2.0
 
 
+@NJIT_INLINE
+def _lut_cell(x: float, x_lo: float, x_hi: float, base: int) -> tuple[float, int]:
+    """``x`` clamped into the LUT's first and last cells (``x_lo``, ``x_hi``: their lower
+    edges) and its cell's column: scaled by a power of two and floored, which is exact."""
+    xc = min(max(x, x_lo), x_hi)
+    return xc, int(math.floor(xc * CELLS_PER_LSB)) - base
+
+
 @NJIT
 def table_code(x: float, levels: np.ndarray, lut: np.ndarray, base: int, r: int) -> int:
     """Code of the continuous input ``x`` (not NaN) on ramp ``r`` of the levels ``levels``.
@@ -121,11 +129,9 @@ def table_code(x: float, levels: np.ndarray, lut: np.ndarray, base: int, r: int)
     ``[(base + c)/CELLS_PER_LSB, (base + c + 1)/CELLS_PER_LSB)``, ``below`` counts the levels
     under it and ``level`` is its one level (+inf if none, NaN if several: then the levels are
     walked). The first and last cells lie beyond every level; ``x`` is clamped into them
-    (branch-free) and scaled by a power of two and floored, which is exact. The kernels' loop
-    (:func:`_table_rows`) writes this out.
+    (:func:`_lut_cell`). The kernels' loop (:func:`_table_rows`) writes the rest out.
     """
-    xc = min(max(x, base / CELLS_PER_LSB), (base + lut.shape[1] - 1) / CELLS_PER_LSB)
-    c = int(math.floor(xc * CELLS_PER_LSB)) - base
+    xc, c = _lut_cell(x, base / CELLS_PER_LSB, (base + lut.shape[1] - 1) / CELLS_PER_LSB, base)
     t = lut[r, c, 0]
     k = np.int64(lut[r, c, 1])
     if t == t:  # at most one level in the cell: one comparison, no search
@@ -221,8 +227,7 @@ def _table_rows(volts, out, v_min, lsb, gain, offset, c_gain, c_offset, dither, 
             if noisy:
                 x = x + dither[m, i]
             r = rows[i]
-            xc = min(max(x, x_lo), x_hi)
-            c = int(math.floor(xc * CELLS_PER_LSB)) - base
+            xc, c = _lut_cell(x, x_lo, x_hi, base)
             t = lut[r, c, 0]
             k = np.int64(lut[r, c, 1])
             if t == t:
@@ -238,8 +243,8 @@ def _count_below(x: float, levels: np.ndarray, lut: np.ndarray, base: int, r: in
     levels, side ``left`` (``right``), without its binary search: the LUT cell of ``x`` counts
     the levels below the cell, then a walk over the cell's level(s). The last column's +inf
     stops the walk."""
-    xc = min(max(x, base / CELLS_PER_LSB), (base + lut.shape[1] - 1) / CELLS_PER_LSB)
-    k = np.int64(lut[r, int(math.floor(xc * CELLS_PER_LSB)) - base, 1])
+    _, c = _lut_cell(x, base / CELLS_PER_LSB, (base + lut.shape[1] - 1) / CELLS_PER_LSB, base)
+    k = np.int64(lut[r, c, 1])
     if inclusive:
         while levels[r, k] <= x:
             k += 1
