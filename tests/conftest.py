@@ -110,12 +110,137 @@ XDIST_GROUPS = {
 }
 
 
+#: The slow tier, marked ``slow`` here rather than at each test so that the whole tier reads in
+#: one place: ``bash scripts/test.sh -m "not slow"`` is the quick loop (about 1 min on 2 cores),
+#: CI and a plain ``scripts/test.sh`` run every test. Slow are the tests of ≥ 1 s on 2 cores
+#: (junit durations, warm numba cache): whole runs that write their figures, processes
+#: (kill/resume, pools, Dask, the benchmark scripts), co-simulation, traced memory, sweeps of
+#: thousands of mutated files, million-vector cross-checks; and the modules whose shared fixture
+#: is such a run (listed as a module: all its tests). ``module::function`` marks every
+#: parametrisation of the function. An entry that names no test stops the session (a renamed
+#: test must not fall out of the tier unnoticed); a test of ≥ SLOW_S outside it is listed at the
+#: end of the run.
+SLOW = {
+    # modules: processes, co-simulation, or a shared fixture that is a whole run
+    "tests/test_benchmarks.py",  # the 15 benchmark scripts, --quick
+    "tests/study/test_kill.py",  # SIGTERM/SIGKILL a study and its pool, then resume
+    "tests/rtl/test_rtl_icarus.py",  # Icarus, cycle for cycle against Verilator
+    "tests/rtl/test_rtl_cosim.py",
+    "tests/rtl/test_rtl_program.py",
+    "tests/validation/test_paper_yield.py",  # the paper's two scenes, whole
+    "tests/validation/test_noise_monte_carlo.py",
+    "tests/characterize/test_cli.py",  # the `characterized` chips: EMVA 1288 sweeps
+    "tests/characterize/test_emva1288.py",
+    "tests/characterize/test_roundtrip.py",
+    "tests/characterize/test_twin.py",
+    "tests/study/test_bundled.py",  # the `frame_memory_result` study
+    "tests/study/test_outputs.py",
+    # whole runs, traced memory, sweeps
+    "tests/config/test_budget.py::test_memory_estimate_is_above_what_a_run_holds",
+    "tests/config/test_budget.py::test_footprint_limit_converges",
+    "tests/config/test_budget.py::test_charge_bound_is_above_every_pixel_frame",
+    "tests/config/test_cost.py::test_the_as_built_estimate_is_within_its_factor",
+    "tests/config/test_study_mutations.py::"
+    "test_every_mutation_loads_or_is_refused_with_file_key_and_allowed",
+    "tests/config/test_mutations.py::test_valid_mutation_runs_shortened_or_exits_2_writing_nothing",
+    "tests/config/test_mutations.py::test_sweep_every_key_every_value_is_a_scenario_or_refused",
+    "tests/config/test_mutations.py::test_found_valid_run_runs",
+    "tests/config/test_mutations.py::test_mutated_scenario_validates_or_exits_2_with_one_line",
+    "tests/config/test_dsp_widths.py::test_dsp_integer_keys_together_validate_or_exit_2",
+    "tests/test_run.py::test_every_bundled_scenario_writes_its_outputs",
+    "tests/test_run.py::test_output_folder_is_never_a_stranger",
+    "tests/test_run.py::test_closed_form_run_is_the_simpy_run",
+    "tests/test_fidelity.py::test_auto_is_cheaper_than_the_reference_and_within_its_budget",
+    "tests/test_adc_levels.py::test_ladder_has_an_ideal_adc_row_with_its_error",
+    "tests/test_adc_levels.py::"
+    "test_auto_keeps_as_built_within_a_tight_budget_and_takes_ideal_within_a_loose_one",
+    "tests/test_shortcuts.py::test_converters_as_built_are_carried_with_their_pixels",
+    "tests/test_ladder.py::test_cli_ladder_writes_its_outputs",
+    "tests/study/test_engine.py::test_serial_pool_and_dask_give_identical_tables",
+    "tests/study/test_engine.py::test_killed_study_resumes_to_the_same_tables",
+    "tests/study/test_engine.py::test_changed_study_is_refused_for_resumption",
+    "tests/study/test_engine.py::test_answer_statistics_and_outputs",
+    "tests/chip/test_chip_scale.py::test_saved_frames_are_what_the_dsp_saw",
+    "tests/chip/test_chip_scale.py::test_peak_memory_does_not_grow_with_frames_beyond_the_trace",
+    "tests/chip/test_steady.py::test_closed_form_is_simpy_where_it_applies",
+    "tests/characterize/test_adc_bench.py::test_same_seed_same_json",
+    "tests/characterize/test_adc_bench.py::test_injected_table_and_noise_round_trip",
+    "tests/characterize/test_adc_bench.py::test_reference_chip_seconds",
+    "tests/characterize/test_adc1241.py::test_bench_end_to_end",
+    "tests/optics/test_raytrace.py::test_optiland_cross_check",
+    "tests/optics/test_psf.py::test_footprint_quadrature_meets_its_tolerance",
+    "tests/optics/test_stack.py::test_cross_talk_falls_as_the_water_gap_shrinks",
+    "tests/dsp/test_dsp_batch.py::test_batch_and_single_jobs_are_the_per_job_pipeline",
+    "tests/dsp/test_dsp_routines.py::test_routine_matches_exact_reference",
+    "tests/dsp/test_dsp_program.py::test_kinetics_variance_equals_monte_carlo",
+    # statistics and exact references that draw or evaluate millions
+    "tests/pixel/test_expected_adc.py::test_sawtooth_series_equals_the_exact_sums",
+    "tests/pixel/test_expected_adc.py::"
+    "test_quadrature_in_slices_is_the_whole_and_holds_little_memory",
+    "tests/pixel/test_expected_adc.py::test_expected_moments_match_a_monte_carlo_of_the_binned_path",
+    "tests/pixel/test_expected_adc.py::test_quadrature_is_within_its_stated_bound",
+    "tests/pixel/test_pixel_noise_model.py::test_dark_series_recovers_dark_current",
+    "tests/pixel/test_pixel_noise_model.py::test_photon_transfer_recovers_conversion_gain",
+    "tests/photons/test_events.py::test_window_counts_have_poisson_mean_and_variance",
+    "tests/photons/test_events.py::test_events_in_windows_are_distributed_as_binned_counts",
+    "tests/photons/test_events.py::"
+    "test_saturation_time_from_rate_has_the_event_based_distribution",
+    "tests/kinetics/test_hard_cases.py::"
+    "test_saturated_cascade_at_1_mM_against_a_tightened_tolerance",
+    "tests/kinetics/test_hard_cases.py::test_window_photons_against_the_50_digit_reference",
+    "tests/kinetics/test_cascade.py::test_source_is_a_light_source_and_photons_integrate_its_rate",
+    "tests/kinetics/test_pulse_train.py::test_pyrosequencing_like_train_over_many_windows",
+    "tests/kinetics/test_phasing.py::test_cascade_incorporations_equal_the_phasing_model",
+    "tests/validation/test_dose_response.py::"
+    "test_blank_three_sigma_threshold_gives_the_normal_false_positive_rate",
+    "tests/validation/test_chunk_equivalence.py::"
+    "test_chunks_draw_the_same_distribution_whose_mean_is_expected",
+    "tests/dsp/test_fixed_apytypes.py::test_requantize_matches_apytypes",
+    "tests/dsp/test_fixed_apytypes.py::test_quantize_matches_apytypes",
+    "tests/dsp/test_fixed_apytypes.py::test_routine_matches_apytypes_on_a_million_vectors",
+    "tests/dsp/test_fixed_properties.py::test_full_precision_ops_are_exact",
+    "tests/dsp/test_fixed_properties.py::test_quantize_is_exact",
+}
+
+#: A test outside the slow tier taking at least this long (setup, call and teardown) is named at
+#: the end of the run, to be made cheaper or added to :data:`SLOW`. Unit: s.
+SLOW_S = 1.5
+
+
+def _check_slow_entries() -> None:
+    """Every :data:`SLOW` entry names a test module, and a function defined in it."""
+    for entry in SLOW:
+        module, _, function = entry.partition("::")
+        path = ROOT / module
+        if not path.is_file() or (function and f"def {function}(" not in path.read_text()):
+            raise pytest.UsageError(f"tests/conftest.py SLOW: {entry!r} names no test (renamed "
+                                    "or removed? keep the slow tier true)")
+
+
 @pytest.hookimpl(tryfirst=True)  # before xdist's own hook, which reads the marks into node ids
 def pytest_collection_modifyitems(config, items) -> None:
+    _check_slow_entries()
     for item in items:
-        group = XDIST_GROUPS.get(item.path.relative_to(ROOT).as_posix())
+        module = item.path.relative_to(ROOT).as_posix()
+        group = XDIST_GROUPS.get(module)
         if group:
             item.add_marker(pytest.mark.xdist_group(group))
+        if module in SLOW or f"{module}::{getattr(item, 'originalname', item.name)}" in SLOW:
+            item.add_marker(pytest.mark.slow)
+
+
+def pytest_terminal_summary(terminalreporter) -> None:
+    """Name the tests outside the slow tier that took ``SLOW_S`` or longer (see :data:`SLOW`)."""
+    took: dict[str, float] = {}
+    for reports in terminalreporter.stats.values():
+        for r in reports:
+            if getattr(r, "when", None) and "slow" not in getattr(r, "keywords", {}):
+                took[r.nodeid] = took.get(r.nodeid, 0.0) + r.duration
+    over = sorted(((t, n) for n, t in took.items() if t >= SLOW_S), reverse=True)
+    if over:
+        terminalreporter.section(f"outside the slow tier, {SLOW_S:g} s or longer")
+        for t, n in over:
+            terminalreporter.write_line(f"{t:6.2f} s  {n}")
 
 
 @pytest.hookimpl(optionalhook=True)  # pytest-xdist's hook, on the controller
