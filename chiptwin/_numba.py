@@ -10,12 +10,19 @@ is pip's, not ours: cache files written there outlive ``pip uninstall`` and leav
 ``chiptwin`` folder without ``__init__.py`` that shadows a later editable install (issue 11). So
 an installed chiptwin caches in the user's cache folder, ``$XDG_CACHE_HOME/chiptwin/numba``
 (default ``~/.cache/chiptwin/numba``). ``NUMBA_CACHE_DIR``, when set, always wins.
+
+**When kernels compile.** A kernel's first call on a machine (or after its sources change)
+compiles it: the pixel kernels of a first ``chiptwin run pyro_1fmol`` take 15–20 s, without
+progress. :func:`announce_compiles` lets the command line say so when it happens.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+import threading
 import warnings
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numba
@@ -70,3 +77,31 @@ NJIT_INLINE = njit(inline="always", **NJIT_OPTIONS)
 warnings.filterwarnings(
     "ignore", message=r".*variable '_(standard_normal|next_double|next_uint64)_jit",
     category=NumbaIRAssumptionWarning)
+
+
+@contextlib.contextmanager
+def announce_compiles(say: Callable[[], None]) -> Iterator[None]:
+    """Call ``say()`` once, at the first kernel numba compiles inside the block (a cache miss:
+    loading a cached kernel says nothing). Through numba's event API (``numba:compile``, which
+    numba broadcasts only when it compiles), from whichever thread compiles."""
+    from numba.core import event
+
+    lock, said = threading.Lock(), []
+
+    class _First(event.Listener):
+        def on_start(self, ev: event.Event) -> None:
+            with lock:
+                if said:
+                    return
+                said.append(True)
+            say()
+
+        def on_end(self, ev: event.Event) -> None:
+            pass
+
+    listener = _First()
+    event.register("numba:compile", listener)
+    try:
+        yield
+    finally:
+        event.unregister("numba:compile", listener)

@@ -19,6 +19,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from chiptwin import __version__
+from chiptwin._numba import announce_compiles
 from chiptwin.config import ScenarioError, load_scenario
 from chiptwin.config.catalog import (
     bundled_scenarios,
@@ -124,7 +125,10 @@ def _main(argv: Sequence[str] | None) -> int:
         parser = build_parser()
         parser.argv = list(sys.argv[1:] if argv is None else argv)
         args = parser.parse_args(parser.argv)
-        return _dispatch(args)
+        if getattr(args, "quiet", False):
+            return _dispatch(args)
+        with announce_compiles(_say_compiling):
+            return _dispatch(args)
     except ScenarioError as exc:
         print(f"chiptwin: error: {exc}", file=sys.stderr)
         return 2
@@ -143,6 +147,14 @@ def _main(argv: Sequence[str] | None) -> int:
         traceback.print_exc()
         print("chiptwin: internal error (the traceback above is a bug report)", file=sys.stderr)
         return 1
+
+
+def _say_compiling() -> None:
+    """The first kernel compiles (:func:`chiptwin._numba.announce_compiles`): say why nothing
+    moves. On a terminal the progress bar's line is cleared first (it is redrawn)."""
+    clear = "\r\033[K" if sys.stderr.isatty() else ""
+    print(f"{clear}  compiling numba kernels: their first use on this machine (10–30 s); "
+          "cached for later runs", file=sys.stderr, flush=True)
 
 
 def _dispatch(args: argparse.Namespace) -> int:
