@@ -8,6 +8,7 @@ command the same way, one line, everything a study stored kept, its workers gone
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import shutil
 import signal
@@ -125,10 +126,7 @@ def _main(argv: Sequence[str] | None) -> int:
         parser = build_parser()
         parser.argv = list(sys.argv[1:] if argv is None else argv)
         args = parser.parse_args(parser.argv)
-        if getattr(args, "quiet", False):
-            return _dispatch(args)
-        with announce_compiles(_say_compiling):
-            return _dispatch(args)
+        return _dispatch(args)
     except ScenarioError as exc:
         print(f"chiptwin: error: {exc}", file=sys.stderr)
         return 2
@@ -149,9 +147,15 @@ def _main(argv: Sequence[str] | None) -> int:
         return 1
 
 
+def _working(progress: _Progress | None):
+    """The context of a command's long work, which reports ``progress``: the first kernel numba
+    compiles in it is announced (:func:`chiptwin._numba.announce_compiles`), so a first run's
+    pause says what it is. Only around the work: a refused input keeps its one line."""
+    return contextlib.nullcontext() if progress is None else announce_compiles(_say_compiling)
+
+
 def _say_compiling() -> None:
-    """The first kernel compiles (:func:`chiptwin._numba.announce_compiles`): say why nothing
-    moves. On a terminal the progress bar's line is cleared first (it is redrawn)."""
+    """On a terminal the progress bar's line is cleared first (it is redrawn)."""
     clear = "\r\033[K" if sys.stderr.isatty() else ""
     print(f"{clear}  compiling numba kernels: their first use on this machine (10–30 s); "
           "cached for later runs", file=sys.stderr, flush=True)
@@ -201,7 +205,7 @@ def _dispatch(args: argparse.Namespace) -> int:
 
     check_disk(scenario, out)
     progress = None if args.quiet else _Progress()
-    with output_lock(out):
+    with output_lock(out), _working(progress):
         result = run(scenario, progress=progress)
         out = write_outputs(result, out)
     if not args.quiet:
@@ -251,9 +255,9 @@ def _characterize(args: argparse.Namespace) -> int:
         return _characterize_adc(scenario, args)
     out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}-emva1288",
                         marker=JSON_NAME)  # before the measurement
-    with output_lock(out):
-        result = characterize(scenario, progress=None if args.quiet else _Progress("images"),
-                              datasheet_in=datasheet)
+    progress = None if args.quiet else _Progress("images")
+    with output_lock(out), _working(progress):
+        result = characterize(scenario, progress=progress, datasheet_in=datasheet)
         out = result.write(out)
     if not args.quiet:
         print("\n".join(headline(result.datasheet)))
@@ -276,8 +280,9 @@ def _characterize_adc(scenario, args: argparse.Namespace) -> int:
                             str(exc).split(": ", 1)[-1]) from None
     out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}-adc1241",
                         marker=JSON_NAME)  # before the measurement
-    bench = adc_bench(scenario, settings=settings,
-                      progress=None if args.quiet else _Progress("conversions"))
+    progress = None if args.quiet else _Progress("conversions")
+    with _working(progress):
+        bench = adc_bench(scenario, settings=settings, progress=progress)
     out = bench.write(out)
     if not args.quiet:
         print("\n".join(headline(bench.to_json())))
@@ -330,9 +335,10 @@ def _study(args: argparse.Namespace) -> int:
         (out / "study.json").unlink(missing_ok=True)  # written last: its presence = complete
         progress = None if args.quiet else _Progress("rows", after_s=0.0)
         try:
-            result = run_study(study, workers=args.workers, scheduler=args.scheduler,
-                               db=out / DB_NAME, fresh=args.fresh, progress=progress,
-                               announce=None if args.quiet else _announcer(progress))
+            with _working(progress):
+                result = run_study(study, workers=args.workers, scheduler=args.scheduler,
+                                   db=out / DB_NAME, fresh=args.fresh, progress=progress,
+                                   announce=None if args.quiet else _announcer(progress))
         except ScenarioError:  # refused before any row ran (scheduler, resumption): no trace
             if new:
                 shutil.rmtree(out, ignore_errors=True)
@@ -390,8 +396,9 @@ def _ladder(scenario, args: argparse.Namespace) -> int:
               f"warm-up), estimated ≈ {format_seconds(sum(weights))}", file=sys.stderr,
               flush=True)
         progress = _Progress("levels", after_s=0.0, weights=weights)
-        ladder = run_ladder(scenario, args.replicates, _reference_levels(args.reference),
-                            progress=progress)
+        with _working(progress):
+            ladder = run_ladder(scenario, args.replicates, _reference_levels(args.reference),
+                                progress=progress)
         print(table(ladder))
         write_ladder(ladder, out)
     if args.json:

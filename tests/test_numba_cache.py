@@ -70,13 +70,29 @@ def test_compiles_are_announced_once_and_cache_loads_not_at_all(tmp_path, monkey
     assert said == []
 
 
-def test_the_command_line_says_when_kernels_compile(monkeypatch, capsys):
+def test_the_command_line_says_when_kernels_compile_in_its_work(monkeypatch, capsys, tmp_path):
+    """Around a command's work (here a run), not around its checks: a refused input keeps its
+    one line even when kernels compiled before the refusal."""
     from numba import njit
 
+    import chiptwin.fidelity
     from chiptwin import cli
 
-    monkeypatch.setattr(cli, "_dispatch", lambda args: int(njit(lambda x: x - 1)(1)))
-    assert cli.main(["run", "pyro_1fmol"]) == 0
+    def run(scenario, progress=None):  # the work: compiles a kernel, then stops (exit 130)
+        njit(lambda x: x - 1)(1)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(chiptwin.fidelity, "run", run)
+    out = ["--out", str(tmp_path / "out")]
+    assert cli.main(["run", "pyro_1fmol", *out]) == 130
     assert capsys.readouterr().err.count("compiling numba kernels") == 1
-    assert cli.main(["run", "pyro_1fmol", "--quiet"]) == 0
+    assert cli.main(["run", "pyro_1fmol", "--quiet", *out]) == 130
     assert "compiling" not in capsys.readouterr().err
+
+    def refused(*args):  # a check that compiles, then refuses the input
+        njit(lambda x: x + 7)(1)
+        raise cli.ScenarioError("mine.toml", "chip.rows", 0, "must be ≥ 1")
+
+    monkeypatch.setattr(cli, "load_scenario", refused)
+    assert cli.main(["run", "pyro_1fmol", *out]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
