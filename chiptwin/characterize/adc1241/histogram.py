@@ -38,6 +38,14 @@ class Ramp:
     v_start_V: float | None
     v_stop_V: float | None
 
+    def __post_init__(self) -> None:
+        if self.v_start_V is not None and self.v_stop_V is not None and not (
+                np.isfinite(self.v_start_V) and np.isfinite(self.v_stop_V)
+                and self.v_start_V < self.v_stop_V):
+            raise ValueError(f"ramp from {self.v_start_V!r} to {self.v_stop_V!r} V: must rise, "
+                             "finite (a falling ramp's histogram is a rising one's: give its "
+                             "ends in rising order)")
+
 
 @dataclass(frozen=True)
 class Sine:
@@ -50,6 +58,14 @@ class Sine:
     offset_V: float | None
     amplitude_V: float | None
     cycles: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.amplitude_V is not None and not (np.isfinite(self.amplitude_V)
+                                                 and self.amplitude_V > 0):
+            raise ValueError(f"sine amplitude_V = {self.amplitude_V!r}: must be finite and > 0 "
+                             "(a negative one is the same sine half a period on)")
+        if self.offset_V is not None and not np.isfinite(self.offset_V):
+            raise ValueError(f"sine offset_V = {self.offset_V!r}: must be finite")
 
 
 def ramp_V(ramp: Ramp, samples: int) -> NDArray[np.float64]:
@@ -243,10 +259,11 @@ def histogram_test(codes: ArrayLike, bits: int, v_min_V: float, v_max_V: float,
 
     Figures: W[k] = T[k+1] − T[k]; Q̄ = (T[2^N−1] − T[1]) / (2^N − 2) the average interior width;
     DNL[k] = W[k]/Q̄ − 1 (missing code: h[k] = 0, DNL = −1); end-point INL[k] = (T[k] − T[1])/Q̄
-    − (k − 1); best-fit INL[k] = (T[k] − a − b·k)/b with a + b·k the least-squares line through
-    the transition levels; independently based gain and offset from that line, in the chip's
-    terms (:func:`chiptwin.pixel.adc.adc_convert`): ``gain_error`` = Q/b − 1 and ``offset_lsb`` =
-    (v_min − a)/b − ½ (IEEE 1241's G = 1 + gain_error).
+    − (k − 1); best-fit INL[k] = c0 + c1·T[k] − k, with G·T[k] + V_os + ε[k] = Q·(k − 1) + T₁
+    fitted as the standard fits it (the ideal levels on the measured ones, Σ ε² least: in codes,
+    k ≈ c0 + c1·T[k]; :func:`_inl_bestfit`); independently based gain and offset from that line,
+    in the chip's terms (:func:`chiptwin.pixel.adc.adc_convert`): ``gain_error`` = G − 1 = Q·c1 − 1
+    and ``offset_lsb`` = c0 + c1·v_min − ½.
 
     Uncertainties (random sampling, the standard's model: each sample's input independent and
     distributed as the stimulus; a deterministic stimulus with independent noise per
@@ -283,6 +300,9 @@ def histogram_from_counts(counts: ArrayLike, bits: int, v_min_V: float, v_max_V:
     if counts[0] == 0 or counts[-1] == 0:
         raise ValueError("codes: both end codes must be hit: the stimulus must overdrive the "
                          f"range (hits: code 0: {counts[0]}, code {2**n - 1}: {counts[-1]})")
+    if counts[1:-1].sum() == 0:
+        raise ValueError("codes: only the end codes were hit: the stimulus must sweep the "
+                         "interior codes (no code width to measure)")
     t_ideal = lo + (np.arange(1, 2**n) - 0.5) * q
     t, g, p, sine, known = _transitions(counts, stimulus, t_ideal)
     return _figures(counts, t, g, p, sine, known, n, lo, q, stimulus)
@@ -297,13 +317,12 @@ def _figures(counts, t, g, p, sine, known, n, lo, q, stimulus) -> HistogramResul
     dnl = _pad(np.diff(t) / qbar - 1.0, 1, 2**n)
     dnl_s = _pad(np.sqrt(var_w) / qbar, 1, 2**n)
     inl_ep, inl_ep_s = _inl_endpoint(t, g, p, s, kk, qbar)
-    inl_bf, inl_bf_s, (a, b), cov_ab = _inl_bestfit(t, g, p, s, kk)
+    inl_bf, inl_bf_s, (c0, c1), cov_c = _inl_bestfit(t, g, p, s, kk)
     off, gain, off_s, gain_s = np.nan, np.nan, np.nan, np.nan
-    if known:
-        off, gain = (lo - a) / b - 0.5, q / b - 1.0
-        jo = np.array([-1.0 / b, -(lo - a) / b**2])
-        jg = np.array([0.0, -q / b**2])
-        off_s, gain_s = np.sqrt(jo @ cov_ab @ jo), np.sqrt(jg @ cov_ab @ jg)
+    if known:  # G = Q·c1, and the line's code at v_min is c0 + c1·v_min = offset + ½
+        off, gain = c0 + c1 * lo - 0.5, q * c1 - 1.0
+        jo, jg = np.array([1.0, lo]), np.array([0.0, q])
+        off_s, gain_s = np.sqrt(jo @ cov_c @ jo), np.sqrt(jg @ cov_c @ jg)
     missing = np.flatnonzero(counts[1:-1] == 0) + 1
     is_ramp = isinstance(stimulus, Ramp)
     return HistogramResult(
@@ -334,20 +353,34 @@ def _inl_endpoint(t, g, p, s, kk, qbar):
 
 
 def _inl_bestfit(t, g, p, s, kk):
-    """Best-fit INL, its sigma ((I − H) Σ (I − H) diagonal, H the rank-2 hat matrix), the line's
-    (a, b) and their covariance."""
-    x = np.column_stack([np.ones(kk.size), kk])
+    """Best-fit (independently based) INL, IEEE 1241's ``G·T[k] + V_os + ε[k] = Q·(k − 1) + T₁``
+    with G and V_os minimising Σ ε[k]²: the ideal levels regressed on the measured ones. In LSB,
+    the codes regressed on the levels, ``k ≈ c0 + c1·T[k]``, and ``INL[k] = c0 + c1·T[k] − k``
+    (= −ε[k]/Q: a level above the line is positive).
+
+    Its sigma to first order in δT, the levels being the regressor: with X = [1, T], H its hat
+    matrix, r = k − X·c the residuals and u = X (XᵀX)⁻¹ e₂, ``δINL = c1·(I − H)·δT + u·(rᵀδT)``
+    and ``δc = (XᵀX)⁻¹ (e₂ rᵀ − c1 Xᵀ) δT``, each variance through Σ = Cov(T) in O(n)
+    (:func:`_bridge_matvec`). Returns INL, its sigma, (c0, c1) and their covariance."""
+    x = np.column_stack([np.ones(t.size), t])
     qm, rm = np.linalg.qr(x)
-    coef = np.linalg.solve(rm, qm.T @ t)
-    a, b = float(coef[0]), float(coef[1])
-    sq = np.column_stack([_bridge_matvec(p, g, qm[:, j], s) for j in range(2)])
+    c0, c1 = (float(v) for v in np.linalg.solve(rm, qm.T @ kk))
+    inl = c0 + c1 * t - kk
+    r = -inl
+    rinv = np.linalg.inv(rm)
+    xtx_inv = rinv @ rinv.T
+    u = x @ xtx_inv[:, 1]
+    sq = np.column_stack([_bridge_matvec(p, g, qm[:, j], s) for j in range(2)])  # Σ·Q
     qsq = qm.T @ sq
     diag = g * g * p * (1.0 - p) / s
-    v = diag - 2.0 * np.sum(qm * sq, axis=1) + np.einsum("ka,ab,kb->k", qm, qsq, qm)
-    rinv = np.linalg.inv(rm)
-    cov_ab = rinv @ qsq @ rinv.T
-    inl = (t - a - b * kk) / b
-    return inl, np.sqrt(np.maximum(v, 0.0)) / b, (a, b), cov_ab
+    v_line = diag - 2.0 * np.sum(qm * sq, axis=1) + np.einsum("ka,ab,kb->k", qm, qsq, qm)
+    sr = _bridge_matvec(p, g, r, s)  # Σ·r
+    rsr = float(r @ sr)
+    var = c1 * c1 * v_line + 2.0 * c1 * u * (sr - qm @ (qm.T @ sr)) + u * u * rsr
+    e2, xsr = np.array([0.0, 1.0]), x.T @ sr
+    inner = (rsr * np.outer(e2, e2) - c1 * (np.outer(e2, xsr) + np.outer(xsr, e2))
+             + c1 * c1 * (rm.T @ qsq @ rm))
+    return inl, np.sqrt(np.maximum(var, 0.0)), (c0, c1), xtx_inv @ inner @ xtx_inv
 
 
 def histogram_samples(bits: int, dnl_uncertainty_lsb: float, confidence: float = 0.95,

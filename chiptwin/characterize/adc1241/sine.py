@@ -208,14 +208,18 @@ def spectrum(codes: ArrayLike, bits: int, cycles: int | None = None) -> Spectrum
     cycles : int, optional
         Whole stimulus cycles in the record when sampled coherently: the fundamental is that bin
         and the window rectangular. Otherwise a Blackman–Harris 4-term window (sidelobes
-        < −92 dB) and the fundamental is the largest bin, its lobe ±4 bins.
+        < −92 dB) and the fundamental is the largest bin, its lobe ±4 bins: the record must
+        hold more than 8 cycles, or the fundamental's lobe runs into DC's (ValueError).
 
     Returns
     -------
     Spectrum
         Powers of the windowed FFT scaled so that a bin-centred sine's lobe sums to its power
         A²/2, over the full-scale sine power 2^(2N−2)/2. The DC lobe (bins ≤ lobe) is excluded
-        from spurs and noise. A spur is one bin (a harmonic's lobe is not summed).
+        from spurs and noise. A spur's power is its lobe's, as the fundamental's: the bins within
+        ± lobe of the largest bin outside the fundamental's and DC's lobes (one bin when
+        coherent; a windowed tone's peak bin holds only ≈ 1/ENBW of its power, −3 dB, so a
+        one-bin spur read SFDR 3–3.8 dB too high).
     """
     n = check_int("bits", bits, 1, 24)
     y = _as_record("codes", codes)
@@ -225,18 +229,25 @@ def spectrum(codes: ArrayLike, bits: int, cycles: int | None = None) -> Spectrum
     p[0] /= 2.0
     if m % 2 == 0:
         p[-1] /= 2.0
-    k0 = check_int("cycles", cycles, 1, (m - 1) // 2) if cycles is not None else int(
-        np.argmax(p[lobe + 1:]) + lobe + 1)
+    if cycles is not None:
+        k0 = check_int("cycles", cycles, 1, (m - 1) // 2)
+    else:
+        k0 = int(np.argmax(p[1:]) + 1)
+        if k0 <= 2 * lobe:
+            raise ValueError(f"codes: the record holds ≈ {k0} stimulus cycles; a windowed "
+                             f"spectrum needs more than {2 * lobe} to part the fundamental's "
+                             "lobe from DC's (record longer, or sample coherently: cycles)")
     lo, hi = max(k0 - lobe, lobe + 1), min(k0 + lobe, p.size - 1)
     sig = float(p[lo:hi + 1].sum())
     rest = p.copy()
     rest[: lobe + 1] = 0.0
     rest[lo:hi + 1] = 0.0
     spur = int(np.argmax(rest))
+    spur_power = float(rest[max(spur - lobe, 0):spur + lobe + 1].sum())
     full = 2.0 ** (2 * n - 2) / 2.0
     with np.errstate(divide="ignore"):
         dbfs = 10.0 * np.log10(p / full)
-        sfdr = 10.0 * np.log10(sig / rest[spur]) if rest[spur] > 0 else np.inf
+        sfdr = 10.0 * np.log10(sig / spur_power) if spur_power > 0 else np.inf
         sinad = 10.0 * np.log10(sig / rest.sum()) if rest.sum() > 0 else np.inf
     return Spectrum(np.arange(p.size) / m, dbfs, name, (lo, hi), spur, float(sfdr), float(sinad))
 
