@@ -177,7 +177,8 @@ SLOW = {
     "tests/pixel/test_expected_adc.py::test_sawtooth_series_equals_the_exact_sums",
     "tests/pixel/test_expected_adc.py::"
     "test_quadrature_in_slices_is_the_whole_and_holds_little_memory",
-    "tests/pixel/test_expected_adc.py::test_expected_moments_match_a_monte_carlo_of_the_binned_path",
+    "tests/pixel/test_expected_adc.py::"
+    "test_expected_moments_match_a_monte_carlo_of_the_binned_path",
     "tests/pixel/test_expected_adc.py::test_quadrature_is_within_its_stated_bound",
     "tests/pixel/test_pixel_noise_model.py::test_dark_series_recovers_dark_current",
     "tests/pixel/test_pixel_noise_model.py::test_photon_transfer_recovers_conversion_gain",

@@ -46,8 +46,8 @@ from chiptwin.pixel.frames import code_dtype
 #: 35 MiB (tracemalloc) for pyro_1fmol's two-layer stack with its 20 µm disc, 18 MiB for
 #: crosstalk_microarray and jssc2006_faceplate; one run makes them one after the other. Unit: B.
 STACK_PSF_BYTES: int = 48 << 20
-#: The converter-as-built's Gauss–Hermite quadrature (a transition table, the range's ends, white
-#: noise below the series' floor): its slices of ``GH_SLICE_VALUES`` node values
+#: The converter-as-built's quadrature (a transition table, the range's ends, white
+#: noise below the series' floor): its slices of ``QUAD_SLICE_VALUES`` node values
 #: (chiptwin.pixel.expected_adc), float64, this many arrays at once: measured 83 MiB
 #: (tracemalloc, pyro_1fmol with 0.2 LSB of DNL against without) = 10.4 arrays of 8 MiB.
 QUADRATURE_ARRAYS: int = 12
@@ -321,7 +321,7 @@ def _kernel_radius(s: Scenario) -> int:
 @dataclass(frozen=True)
 class Quadrature:
     """How :mod:`chiptwin.pixel.expected_adc` takes a scene's converter-as-built moments by
-    Gauss–Hermite: ``nodes`` a pixel-frame and pass, the white rms ``u`` (LSB) whose ±10 ``u``
+    The quadrature: ``nodes`` a pixel-frame and pass, the white rms ``u`` (LSB) whose ±10 ``u``
     window of codes each node sums, ``table`` (a transition table: always the window; else from
     ``END_CLOSED_FROM_LSB`` of ``u`` the ends' closed form instead)."""
 
@@ -332,7 +332,7 @@ class Quadrature:
 
 def as_built_quadrature(s: Scenario) -> Quadrature | None:
     """The quadrature of ``s``'s converter as built, or None where none runs (no ``[chip.adc]``
-    effect, or the sawtooth's series answers every pixel-frame). Gauss–Hermite when the converter
+    effect, or the sawtooth's series answers every pixel-frame). The quadrature when the converter
     has a transition table, its white noise (read + comparator) is below the series' floor, or
     the dark level sits within ``10 (u + kTC)`` of code 0 (every dark pixel-frame then leaves the
     series: ccd_two_wells with a 128-LSB comparator, its pedestal at code 1,311); its nodes by
@@ -384,11 +384,11 @@ def memory_estimate(s: Scenario) -> list[MemoryTerm]:
                             "(codes stacked for CMS)", job * pixels * stacked,
                             f"chip.dsp.n_dark_frames, {size}, chip.dsp.cms_samples"))
     if as_built_quadrature(s) is not None:
-        from chiptwin.pixel.expected_adc import GH_SLICE_VALUES
+        from chiptwin.pixel.expected_adc import QUAD_SLICE_VALUES
 
         terms.append(MemoryTerm(f"the converter-as-built quadrature's slices, "
-                                f"{QUADRATURE_ARRAYS} × {GH_SLICE_VALUES} values × 8 B",
-                                QUADRATURE_ARRAYS * GH_SLICE_VALUES * 8,
+                                f"{QUADRATURE_ARRAYS} × {QUAD_SLICE_VALUES} values × 8 B",
+                                QUADRATURE_ARRAYS * QUAD_SLICE_VALUES * 8,
                                 "chip.adc (" + ", ".join(c.adc.as_built_keys) + ")"))
     if s.assay.kind != "flux" and s.optics.coupling == "contact" and s.optics.stated_stack:
         terms.append(MemoryTerm("the stack psf's profile and quadrature (the psf level through "

@@ -159,7 +159,7 @@ def _end_moments(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Mean and variance of ``clip(rint(X), 0, top)``, ``X ~ N(mu, sd²)``, near the range's ends,
     in closed form (``sd`` ≥ :data:`END_CLOSED_FROM_LSB`; the window sums cost ∝ ``sd`` a value,
-    a minute and more of a run with a wide comparator noise at the Gauss–Hermite nodes).
+    a minute and more of a run with a wide comparator noise at the quadrature's nodes).
 
     About ``c = clip(rint(mu), 0, top)``: ``E[C − c] = Σ_{k>c} P(C ≥ k) − Σ_{k≤c} P(C < k)`` and
     ``E[(C − c)²] = Σ_{k>c} (2(k − c) − 1) P(C ≥ k) + Σ_{k≤c} (2(c − k) + 1) P(C < k)``, where

@@ -36,22 +36,29 @@ Two ways to the two expectations over a Gaussian ``y``:
   Gaussian expectations are closed forms (:func:`_series_mean_of_var`, :func:`_series_ktc_cov`).
   ``⌈1.5/u⌉`` harmonics (2 at ``u`` ≥ 1 LSB, 12 at the reference chip's 0.13 LSB of read
   noise) leave out terms below 1e-19.
-* **Gauss–Hermite** over ``y`` elsewhere (a transition table: INL, DNL or a measured one; the
-  range's ends; white noise below :data:`SERIES_MIN_WHITE_LSB`): :data:`GH_NODES` nodes by the
-  ratio of the shared rms to the white rms, on the converter's exact table sums.
+* **A quadrature** over ``y`` elsewhere (a transition table: INL, DNL or a measured one; the
+  range's ends; white noise below :data:`SERIES_MIN_WHITE_LSB`): the trapezoid rule on a uniform
+  grid whose step follows the white noise (:data:`QUAD_PER_WHITE` nodes per white rms, so the
+  nodes grow with the ratio of the shared rms to the white rms), on the converter's exact table
+  sums.
 
-Accuracy (``tests/pixel/test_expected_adc.py``), against a trapezoid of 16001 points over ±8σ
+Accuracy (``tests/pixel/test_expected_adc.py``), against a trapezoid of 36001 points over ±9σ
 of the exact table sums: the series within 1e-12 LSB² (measured ≤ 2e-13, comparator noise
-0 … 1 LSB, read noise 0.13 … 1 LSB, shared rms 0.05 … 20 LSB, mismatch on), Gauss–Hermite within
-``GH_REL_TOL·σ_y² + GH_ABS_TOL_LSB2`` (measured worst 0.03 LSB² at σ_y = 20 LSB with no
-comparator noise; below 1e-3 LSB² wherever σ_y ≤ 4× the white rms, to 1e-8 at ≤ 2×). The CMS
-moments agree with a Monte Carlo of the binned kernel within its standard errors (same test).
-Cost: Gauss–Hermite ≈ 150–580 table sums a pixel-frame (96 or 192 nodes; the reset side's
-kTC nodes once per pixel, :func:`_centred_reset`), each ≈ 0.2 µs at 0.13 LSB of white noise:
-``chiptwin run pyro_1fmol`` with 0.2 LSB of DNL takes 19 s against 4 s ideal (it took 32 s,
-1.75 GB, before the quadrature ran in slices of :data:`GH_SLICE_VALUES` and the window's
-bounds came from the search LUT; 245 MB now). The series ≈ 1.5 µs a pixel-frame (pyro_1fmol
-with a 1-LSB comparator, expected level: 0.46 s against 19.4 s, one run each).
+0 … 1 LSB, read noise 0.13 … 1 LSB, shared rms 0.05 … 20 LSB, mismatch on), the quadrature within
+:data:`QUAD_TOL_LSB2` (measured ≤ 4e-9 LSB², white rms 0.01 … 1 LSB, shared rms 0.5 … 100× it)
+up to :data:`QUAD_MAX_RATIO`; beyond, the nodes thin out (measured 1e-4 … 7e-4 LSB² at 300×,
+against a shared variance of ≥ 9·10⁴ u²). Until this round the quadrature was Gauss–Hermite with
+at most 192 nodes: E_y[v] was 50–100 % off at 20× (a true-CDS dark pixel's variance 0.0142
+against 0.0313 LSB² by Monte Carlo), where its stated bound had grown with σ_y². The CMS moments
+agree with a Monte Carlo of the binned kernel within its standard errors (same test).
+Cost: ≈ 2 × 2·⌈6.5 × 1.25 × σ/u⌉ table sums a pixel-frame, each element with the nodes of its
+own spread (:func:`_by_series`; the reset side's kTC nodes once per pixel,
+:func:`_centred_reset`), each sum ≈ 0.2 µs at 0.13 LSB of white noise: ``chiptwin run
+pyro_1fmol`` with 0.2 LSB of DNL (79–131 nodes against Gauss–Hermite's 192) ran 8.2 s against
+20.6 s with Gauss–Hermite in the same sitting, its results within 5e-7 (4 s ideal; 32 s and
+1.75 GB before the quadrature ran in slices of :data:`QUAD_SLICE_VALUES` and the window's bounds
+came from the search LUT). The series ≈ 1.5 µs a pixel-frame (pyro_1fmol with a 1-LSB
+comparator, expected level: 0.46 s against 19.4 s, one run each).
 """
 
 from __future__ import annotations
@@ -63,41 +70,62 @@ from numpy.typing import ArrayLike, NDArray
 
 from chiptwin.pixel.converter import Converter
 
-#: Gauss–Hermite nodes of the quadrature over a side's shared component, by the ratio of its rms
-#: to the white noise's (read + comparator): the staircase the quadrature integrates is smooth on
-#: the scale of the white noise, so a wider shared spread needs denser nodes.
-GH_NODES: tuple[tuple[float, int], ...] = ((2.0, 48), (4.0, 96), (math.inf, 192))
-
-#: Bound on the quadrature's error in ``E_y[v(y)]`` (hence in a side's variance), relative to the
-#: shared variance σ_y², plus :data:`GH_ABS_TOL_LSB2` (see the module's Accuracy).
-GH_REL_TOL: float = 5e-3
-GH_ABS_TOL_LSB2: float = 1e-3
+#: The quadrature over a side's shared component ``y ~ N(μ, σ²)``: the trapezoid rule on a
+#: uniform grid of ``z = (y − μ)/σ`` over ±:data:`QUAD_Z`. The integrands (a code's variance or
+#: mean given ``y``) are the converter's staircase smoothed by the white noise ``u``, whose
+#: harmonics fall as ``exp(−π²u²ν²)`` (ν in cycles per LSB): a step of ``u/QUAD_PER_WHITE`` aliases
+#: them at ``exp(−π²·QUAD_PER_WHITE²) ≈ 2e-10`` of their size, and a step of at most
+#: :data:`QUAD_MAX_STEP` σ integrates the Gaussian weight itself to ``exp(−2π²/QUAD_MAX_STEP²)``.
+#: Nodes grow linearly with ``σ/u``; Gauss–Hermite's spacing shrinks only as ``1/√n`` (192 nodes
+#: left E_y[v] 50–100 % off at σ/u ≈ 20, where a true-CDS dark pixel's variance is that term).
+QUAD_Z: float = 6.5
+QUAD_PER_WHITE: float = 1.25
+QUAD_MAX_STEP: float = 0.5
+#: At most this many nodes: up to :data:`QUAD_MAX_RATIO` at the full density; wider spreads are
+#: sampled more coarsely (their error ≈ 1e-3 LSB², against a shared variance of ≥ 10⁴ u²).
+QUAD_MAX_NODES: int = 2049
+#: The widest shared rms, in white rms, the quadrature integrates at its full density.
+QUAD_MAX_RATIO: float = (QUAD_MAX_NODES - 1) / (2.0 * QUAD_Z * QUAD_PER_WHITE)
+#: Bound on the quadrature's error in ``E_y[v(y)]`` (and the kTC covariance) up to
+#: :data:`QUAD_MAX_RATIO`. Unit: LSB².
+QUAD_TOL_LSB2: float = 1e-8
 
 #: Values (nodes × elements) of one slice of a quadrature: its temporaries, a dozen arrays of
 #: that many, stay ≈ 100 MB whatever the block of frames. Unsliced, a block of 1,024 frames of
 #: the reference chip's 128 pixels at 192 nodes made 25 M values an array: a 1.75 GB peak for
 #: a run its memory estimate put at 443 MiB (pyro_1fmol with 0.2 LSB of DNL).
-GH_SLICE_VALUES: int = 1 << 20
+QUAD_SLICE_VALUES: int = 1 << 20
 
 
-def _gh(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Probabilists' Gauss–Hermite nodes and weights normalised to sum to 1 (E over N(0, 1))."""
-    z, w = np.polynomial.hermite_e.hermegauss(n)
+def _quadrature_nodes(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``n`` (odd) uniform nodes over ±:data:`QUAD_Z` and their trapezoid weights, each the
+    standard normal density times the step, normalised to sum to 1 (E over N(0, 1))."""
+    z = np.linspace(-QUAD_Z, QUAD_Z, n)
+    w = np.exp(-0.5 * z * z)
     return z, w / w.sum()
 
 
 def node_count(shared_sd: ArrayLike, white_sd: ArrayLike) -> int:
-    """Nodes for a call: :data:`GH_NODES` at the largest ratio of shared to white rms."""
-    ratio = float(np.max(np.asarray(shared_sd) / np.maximum(white_sd, 1e-300), initial=0.0))
-    return next(n for top, n in GH_NODES if ratio <= top)
+    """Nodes for the largest ratio of shared to white rms: :data:`QUAD_PER_WHITE` per white rms
+    (a step of at most :data:`QUAD_MAX_STEP` σ), at most :data:`QUAD_MAX_NODES`."""
+    ratio = np.max(np.asarray(shared_sd) / np.maximum(white_sd, 1e-300), initial=0.0)
+    return int(_node_counts(np.asarray(ratio)))
 
 
-def _nodes_for(conv: Converter, shared_sd_V: ArrayLike, white_var_V: float) -> tuple:
-    """:data:`GH_NODES` for the widest shared rms against the narrowest white rms, both in LSB of
-    any converter (read noise at the smallest gain, plus the comparator noise)."""
+def _node_counts(ratio: NDArray[np.float64]) -> NDArray[np.int64]:
+    """:func:`node_count` of each ratio, the ratio first rounded up to a power of 2^¼ (a call's
+    elements share a few node sets: at most 1.19× the nodes each needs)."""
+    top = 2.0 ** (np.ceil(4.0 * np.log2(np.maximum(ratio, 1e-300))) / 4.0)
+    step = np.minimum(1.0 / (QUAD_PER_WHITE * top), QUAD_MAX_STEP)
+    return np.minimum(2 * np.ceil(QUAD_Z / step).astype(np.int64) + 1, QUAD_MAX_NODES)
+
+
+def _ratios(conv: Converter, shared_sd_V: ArrayLike, white_var_V: ArrayLike
+            ) -> NDArray[np.float64]:
+    """Each element's shared rms over its white rms (read noise and the comparator's), both in
+    its converter's LSB (``conv`` the elements' converters, a row)."""
     slope = conv.input_codes(conv.v_min_V)[1]  # LSB per volt, per converter
-    sd_lsb = np.asarray(shared_sd_V) * float(slope.max())
-    return _gh(node_count(sd_lsb, float(_white_lsb(conv, white_var_V, slope).min())))
+    return np.asarray(shared_sd_V) * slope / _white_lsb(conv, white_var_V, slope)
 
 
 def mean_of_var(conv: Converter, mean_V: NDArray[np.float64], shared_sd_V: NDArray[np.float64],
@@ -108,7 +136,7 @@ def mean_of_var(conv: Converter, mean_V: NDArray[np.float64], shared_sd_V: NDArr
 
     On the ideal transitions inside the range, the sawtooth's series (:func:`_series_mean_of_var`);
     elsewhere (a transition table, the range's ends, white noise below :data:`SERIES_MIN_WHITE_LSB`)
-    the Gauss–Hermite quadrature."""
+    the quadrature."""
     x, slope = conv.input_codes(mean_V)
     mean_V, shared_sd_V = (np.broadcast_to(np.asarray(a, float), x.shape)
                            for a in (mean_V, shared_sd_V))
@@ -117,17 +145,16 @@ def mean_of_var(conv: Converter, mean_V: NDArray[np.float64], shared_sd_V: NDArr
     mean_f, sd_f = (np.ascontiguousarray(a).reshape(-1) for a in (mean_V, shared_sd_V))
     return _by_series(conv, series, lambda: _series_mean_of_var(x[series], sigma[series],
                                                                 u[series]),
-                      lambda sub, rest: _nodes_for(sub, sd_f[rest], white_var_V),
-                      lambda sub, idx, nodes: _gh_mean_of_var(sub, mean_f[idx], sd_f[idx],
-                                                              white_var_V, nodes))
+                      lambda sub, rest: _ratios(sub, sd_f[rest], white_var_V),
+                      lambda sub, idx, nodes: _quad_mean_of_var(sub, mean_f[idx], sd_f[idx],
+                                                                white_var_V, nodes))
 
 
-def _gh_mean_of_var(conv: Converter, mean_V: NDArray[np.float64],
-                    shared_sd_V: NDArray[np.float64], white_var_V: float,
-                    nodes: tuple | None = None) -> NDArray[np.float64]:
-    """:func:`mean_of_var` by Gauss–Hermite over ``y``: ``nodes`` (z, w), by default
-    :data:`GH_NODES` for these elements."""
-    z, w = _nodes_for(conv, shared_sd_V, white_var_V) if nodes is None else nodes
+def _quad_mean_of_var(conv: Converter, mean_V: NDArray[np.float64],
+                      shared_sd_V: NDArray[np.float64], white_var_V: float,
+                      nodes: tuple) -> NDArray[np.float64]:
+    """:func:`mean_of_var` by the quadrature over ``y`` at ``nodes`` (z, w)."""
+    z, w = nodes
     zz = z.reshape((-1,) + (1,) * np.ndim(mean_V))
     _, v = conv.expected(mean_V + shared_sd_V * zz, white_var_V)
     return _node_sum(w, v)
@@ -195,7 +222,7 @@ def _shared_ktc_cov(conv: Converter, s_mu: NDArray[np.float64], shot_V2: NDArray
     """``Cov(S̄, R̄) = Cov_k(g(k), f_r(k))`` over the kTC draw both sides share: ``g(k)`` the
     signal code's mean given ``k`` (charge and white noise summed exactly), ``f_r(k)`` the reset
     code's. Unit: LSB². The sawtooth's series where :func:`mean_of_var` takes it (both sides
-    inside the range), Gauss–Hermite elsewhere. ``ped`` (the reset level) has the converters'
+    inside the range), the quadrature elsewhere. ``ped`` (the reset level) has the converters'
     shape: the same in every frame."""
     a, slope = conv.input_codes(s_mu)
     b = np.broadcast_to(conv.input_codes(ped)[0], a.shape)
@@ -205,35 +232,36 @@ def _shared_ktc_cov(conv: Converter, s_mu: NDArray[np.float64], shot_V2: NDArray
               & _on_series(conv, b, u_r, 10.0 * (kappa + u_r)))
     s_f, shot_f = (np.ascontiguousarray(np.broadcast_to(v, a.shape)).reshape(-1)
                    for v in (s_mu, shot_V2))
-    reset: dict[int, NDArray[np.float64]] = {}  # f_r − E f_r per pixel at the nodes, made once
+    reset: dict[int, NDArray[np.float64]] = {}  # f_r − E f_r per pixel, per node set, made once
 
     def quadrature(sub: Converter, idx: NDArray[np.int64], nodes: tuple) -> NDArray[np.float64]:
-        if not reset:
-            reset[0] = _centred_reset(conv, ped, k_sd, white, nodes)
-        return _gh_ktc_cov(sub, s_f[idx], shot_f[idx], reset[0][:, idx % conv.n_pixels], k_sd,
-                           white, nodes)
+        n = nodes[0].size
+        if n not in reset:
+            reset[n] = _centred_reset(conv, ped, k_sd, white, nodes)
+        return _quad_ktc_cov(sub, s_f[idx], shot_f[idx], reset[n][:, idx % conv.n_pixels], k_sd,
+                             white, nodes)
 
     return _by_series(
         conv, series,
         lambda: _series_ktc_cov(a[series], b[series], kappa[series], u_s[series], u_r[series]),
-        lambda sub, rest: _nodes_for(sub, np.full(rest.size, k_sd), white), quadrature)
+        lambda sub, rest: _ratios(sub, np.full(rest.size, k_sd), white), quadrature)
 
 
 def _centred_reset(conv: Converter, ped: NDArray[np.float64], k_sd: float, white: float,
                    nodes: tuple) -> NDArray[np.float64]:
     """``f_r(k) − E_k f_r`` at the nodes, per pixel (``(nodes, n_pixels)``): the reset side's
     code mean given the kTC draw is the same in every frame, so it is summed once per pixel,
-    not once per pixel-frame (half the table sums of :func:`_gh_ktc_cov`)."""
+    not once per pixel-frame (half the table sums of :func:`_quad_ktc_cov`)."""
     z, w = nodes
     f_r, _ = conv.expected(ped + k_sd * z.reshape((-1,) + (1,) * ped.ndim), white)
     f_r = f_r.reshape(z.size, conv.n_pixels)
     return f_r - _node_sum(w, f_r)
 
 
-def _gh_ktc_cov(conv: Converter, s_mu: NDArray[np.float64], shot_V2: NDArray[np.float64],
-                f_r: NDArray[np.float64], k_sd: float, white: float, nodes: tuple
-                ) -> NDArray[np.float64]:
-    """:func:`_shared_ktc_cov` by Gauss–Hermite over ``k`` on a row of elements (``conv`` their
+def _quad_ktc_cov(conv: Converter, s_mu: NDArray[np.float64], shot_V2: NDArray[np.float64],
+                  f_r: NDArray[np.float64], k_sd: float, white: float, nodes: tuple
+                  ) -> NDArray[np.float64]:
+    """:func:`_shared_ktc_cov` by the quadrature over ``k`` on a row of elements (``conv`` their
     converters): ``f_r`` the reset side's centred code mean at the nodes
     (:func:`_centred_reset`, one column per element)."""
     z, w = nodes
@@ -266,24 +294,29 @@ def _on_series(conv: Converter, x: NDArray[np.float64], u: NDArray[np.float64],
     return (x - reach >= 0.5) & (x + reach <= top - 0.5)
 
 
-def _by_series(conv: Converter, series: NDArray[np.bool_], by_series, nodes_for, by_quadrature
+def _by_series(conv: Converter, series: NDArray[np.bool_], by_series, ratios_of, by_quadrature
                ) -> NDArray[np.float64]:
     """An array of ``series.shape``: ``by_series()`` on the ``series`` elements; on the others
-    one node set ``nodes_for(sub, rest)`` (``rest`` their flat indices, C order, ``sub`` their
-    converters in a row), then ``by_quadrature(sub, idx, nodes)`` slice by slice
-    (:data:`GH_SLICE_VALUES` values of nodes × elements a slice)."""
+    (``rest``, their flat indices, C order) each element's ratio of shared to white rms
+    ``ratios_of(sub, rest)`` (``sub`` their converters in a row) picks its node set
+    (:func:`_node_counts`), and ``by_quadrature(sub, idx, nodes)`` runs on the elements of each
+    node set slice by slice (:data:`QUAD_SLICE_VALUES` values of nodes × elements a slice): one
+    wide element (a bright pixel's shot noise) does not set every element's nodes."""
     out = np.empty(series.shape)
     if series.any():
         out[series] = by_series()
     rest = np.flatnonzero(~series)
     if rest.size:
         pixel = rest % conv.n_pixels  # the trailing axes of series.shape are the converters'
-        nodes = nodes_for(conv.at(pixel), rest)
+        counts = _node_counts(ratios_of(conv.at(pixel), rest))
         flat = out.reshape(-1)
-        step = max(1, GH_SLICE_VALUES // nodes[0].size)
-        for lo in range(0, rest.size, step):
-            part = slice(lo, lo + step)
-            flat[rest[part]] = by_quadrature(conv.at(pixel[part]), rest[part], nodes)
+        for n in np.unique(counts):
+            mine = rest[counts == n]
+            nodes = _quadrature_nodes(int(n))
+            step = max(1, QUAD_SLICE_VALUES // int(n))
+            for lo in range(0, mine.size, step):
+                part = mine[lo:lo + step]
+                flat[part] = by_quadrature(conv.at(part % conv.n_pixels), part, nodes)
     return out
 
 
@@ -355,4 +388,4 @@ def _series_ktc_cov(a: NDArray[np.float64], b: NDArray[np.float64], kappa: NDArr
     return out
 
 
-__all__ = ["GH_ABS_TOL_LSB2", "GH_NODES", "GH_REL_TOL", "cms_moments", "mean_of_var", "node_count"]
+__all__ = ["QUAD_MAX_RATIO", "QUAD_TOL_LSB2", "cms_moments", "mean_of_var", "node_count"]

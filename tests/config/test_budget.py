@@ -113,8 +113,8 @@ SHAPES = [
         "chip.rows=32", "chip.cols=32", "chip.dsp.cms_samples=32", "chip.dsp.n_dark_frames=64",
         "chip.adc.clock_hz=160e6", "chip.memory.capacity_bits=134217728", "assay.start_s=64",
         "assay.n_flows=8", "run.duration_s=544"]),
-    # the converter as built through a DNL table: Gauss–Hermite quadrature in slices of
-    # GH_SLICE_VALUES node values (a 1,024-frame block at 192 nodes is 25 M values whole: it once
+    # the converter as built through a DNL table: the quadrature in slices of
+    # QUAD_SLICE_VALUES node values (a 1,024-frame block at 192 nodes was 25 M values whole: it once
     # held 1.75 GB where the estimate said 443 MiB). Measured: 59.9 MiB traced against an
     # estimate of 182 MiB; 241 MiB with the quadrature unsliced (the test then fails)
     ("converter table", "pyro_1fmol", ["chip.adc.dnl_rms_lsb=0.2", "assay.n_flows=8",
@@ -185,12 +185,12 @@ def test_footprint_limit_converges():
 @pytest.mark.parametrize(("name", "sets", "nodes"), [
     ("pyro_1fmol", [], None),  # the ideal converter
     ("pyro_1fmol", ["chip.adc.comparator_noise_uV=122.07"], None),  # the series answers
-    ("pyro_1fmol", ["chip.adc.dnl_rms_lsb=0.2"], 192),  # a table: the quadrature
-    ("ccd_two_wells", ["chip.adc.comparator_noise_lsb=128"], 48),  # the dark level near code 0
+    ("pyro_1fmol", ["chip.adc.dnl_rms_lsb=0.2"], 79),  # a table: the quadrature
+    ("ccd_two_wells", ["chip.adc.comparator_noise_lsb=128"], 27),  # the dark level near code 0
 ])
 def test_the_quadrature_has_its_memory_term_and_its_cost(name, sets, nodes):
-    """Where the converter as built goes through Gauss–Hermite the memory estimate counts its
-    slices (QUADRATURE_ARRAYS × GH_SLICE_VALUES float64; tests/pixel/test_expected_adc.py holds
+    """Where the converter as built goes through the quadrature the memory estimate counts its
+    slices (QUADRATURE_ARRAYS × QUAD_SLICE_VALUES float64; tests/pixel/test_expected_adc.py holds
     a traced quadrature below it) and the wall estimate its nodes; nowhere else."""
     s = load_scenario(SCENARIOS / f"{name}.toml", sets)
     q = B.as_built_quadrature(s)

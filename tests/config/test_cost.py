@@ -85,7 +85,7 @@ def test_validate_prints_the_estimate(capsys):
 def test_the_converter_as_built_costs_by_where_its_moments_come_from():
     """The converter as built's expected moments: the series costs little a pixel-frame; a
     transition table, or a dark level within 10 (white + kTC) rms of code 0, sends them to
-    Gauss–Hermite. ccd_two_wells's pedestal sits at code 1,311: a 64-LSB comparator reaches 807
+    the quadrature. ccd_two_wells's pedestal sits at code 1,311: a 64-LSB comparator reaches 807
     codes (the series), a 128-LSB one 1,447 (the quadrature, with the ends' closed form at each
     node: before it, a window of 2,565 codes a node, and the run did not end in 100 s). A
     transition table keeps its window."""
@@ -95,19 +95,19 @@ def test_the_converter_as_built_costs_by_where_its_moments_come_from():
     assert not any("as built" in t.what for t in cost.wall_estimate(scene("pyro_1fmol")))
     series = term("ccd_two_wells", "chip.adc.comparator_noise_lsb=64")
     wide = term("ccd_two_wells", "chip.adc.comparator_noise_lsb=128")
-    assert "by the series" in series.what and "Gauss–Hermite" in wide.what
+    assert "by the series" in series.what and "by quadrature" in wide.what
     assert "closed form" in wide.what and "codes" not in wide.what
     assert wide.seconds > 10 * series.seconds and "comparator_noise_lsb" in wide.keys
     table = term("pyro_1fmol", "chip.adc.dnl_rms_lsb=0.2")
-    assert "Gauss–Hermite" in table.what and "192 nodes" in table.what and "codes" in table.what
+    assert "by quadrature" in table.what and "79 nodes" in table.what and "codes" in table.what
 
 
 @pytest.mark.parametrize(("name", "sets"), [
     ("pyro_1fmol", ["chip.adc.comparator_noise_uV=122.07"]),  # the series
-    ("ccd_two_wells", ["chip.adc.comparator_noise_lsb=128"]),  # Gauss–Hermite, the ends' form
+    ("ccd_two_wells", ["chip.adc.comparator_noise_lsb=128"]),  # the quadrature, the ends' form
 ])
 def test_the_as_built_estimate_is_within_its_factor(name, sets):
-    """The series (pyro_1fmol reduced, a 1-LSB comparator: 0.3 s) and Gauss–Hermite with the
+    """The series (pyro_1fmol reduced, a 1-LSB comparator: 0.3 s) and the quadrature with the
     ends' closed form (ccd_two_wells reduced, a 128-LSB comparator: ≈ 4 s). The window
     constants were fitted to two whole runs of ≈ 20 and 30 s (config/cost.py), too long to
     repeat here. One run each, its kernels loaded from numba's cache (or compiled) included."""
