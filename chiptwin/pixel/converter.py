@@ -193,6 +193,13 @@ def check_transition_table(
             f"{name} decreases at level {k + 1}: {arr[k + 1]!r} < {arr[k]!r}; "
             "transition levels must be non-decreasing"
         )
+    lo, hi = -(2.0**bits), 2.0 ** (bits + 1)
+    if arr.size and (arr[0] < lo or arr[-1] > hi):
+        raise ValueError(
+            f"{name} spans {float(arr[0])!r} … {float(arr[-1])!r} LSB: levels must lie within "
+            f"one range of the converter's, [{lo:g}, {hi:g}] (a stray level is likely a unit "
+            "mix-up; the search LUT holds 2 cells an LSB over the levels' span)"
+        )
     return arr
 
 
@@ -283,23 +290,25 @@ class Converter:
         rows = np.zeros(n, np.int64)
         if self.levels is not None:
             tables = self._tables
-            if tables is not None and getattr(self.levels, "base", None) is not tables[0]:
-                tables = None  # not the levels they were made from (a dataclasses.replace)
+            if tables is not None and (self.levels is not tables[3]
+                                       or tables[0].shape[1] != 2**self.bits):
+                tables = None  # not the levels (and bits) they were made for: a replace()
             if tables is None:
                 levels = np.ascontiguousarray(np.atleast_2d(np.asarray(self.levels, np.float64)))
                 for r in range(levels.shape[0]):
                     check_transition_table(levels[r], self.bits, f"levels[{r}]")
                 lut, base = _search_lut(levels)
-                tables = (_padded(levels), lut, base)
-            levels, lut, base = tables
+                padded = _padded(levels)
+                tables = (padded, lut, base, padded[:, :-1])  # the view is the levels' identity
+            levels, lut, base, view = tables
             object.__setattr__(self, "_tables", tables)
             if self.table_of_pixel is not None:
                 rows = np.ascontiguousarray(self.table_of_pixel, np.int64).reshape(-1)
-                if rows.size != n or rows.min() < 0 or rows.max() >= levels.shape[0]:
+                if rows.size != n or (n and (rows.min() < 0 or rows.max() >= levels.shape[0])):
                     raise ValueError(
                         f"table_of_pixel must hold {n} rows of levels in [0, {levels.shape[0] - 1}]"
                     )
-            object.__setattr__(self, "levels", levels[:, :-1])  # a view: stored once
+            object.__setattr__(self, "levels", view)  # stored once, in the padded table
         noise = float(self.comparator_noise_lsb)
         object.__setattr__(self, "_conv", (True, gain, offset, rows, noise, levels, lut, base))
 
@@ -476,12 +485,17 @@ class Converter:
             raise ValueError("mean_V and var_V must be finite and var_V ≥ 0")
         _, g, o, rows, noise, *lut = self._conv  # type: ignore[attr-defined]
         v_min, lsb, gain, offset, top = self.consts()
-        mu = (mean_a - v_min) / lsb * gain + offset
-        sd = np.sqrt(var_a) * (gain / lsb)
-        if not self.ideal:
-            mu, sd, rows = np.broadcast_arrays(mu, sd, rows.reshape(self.shape))
-            gains, offs = g.reshape(self.shape), o.reshape(self.shape)
-            mu, sd = mu * gains + offs, np.sqrt((sd * gains) ** 2 + noise * noise)
+        with np.errstate(over="ignore", invalid="ignore"):  # checked below
+            mu = (mean_a - v_min) / lsb * gain + offset
+            sd = np.sqrt(var_a) * (gain / lsb)
+            if not self.ideal:
+                mu, sd, rows = np.broadcast_arrays(mu, sd, rows.reshape(self.shape))
+                gains, offs = g.reshape(self.shape), o.reshape(self.shape)
+                mu, sd = mu * gains + offs, np.sqrt((sd * gains) ** 2 + noise * noise)
+            reach = np.abs(mu) + _WINDOW_SIGMA * sd
+        if not np.isfinite(reach).all():  # +inf would walk a table sum past the table's end
+            raise ValueError("mean_V and var_V overflow the converter's codes (|mean| or its "
+                             f"{_WINDOW_SIGMA:g} rms above ~1e300 LSB): must be real voltages")
         mu, sd = np.ascontiguousarray(mu).ravel(), np.ascontiguousarray(sd).ravel()
         if self.ideal or (self.levels is None and self.bits > IDEAL_TABLE_MAX_BITS):
             mean, var = _moments(mu, sd, top)

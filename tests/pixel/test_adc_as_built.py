@@ -651,3 +651,30 @@ def test_converters_of_a_subset_share_the_tables_and_a_replaced_table_is_made_ag
     assert other._conv[6] is not conv._conv[6]
     volts2 = rng.uniform(0.0, 1.0, (500, 2))
     assert np.array_equal(other.convert(volts2), fresh.convert(volts2))
+    # a replace that keeps the levels' buffer but not the levels (rows reversed: a view of the
+    # same table) or changes the bits: made again, or refused, never the parent's tables
+    ramps = Converter(BITS, 0.0, 1.0, levels=np.vstack([one, two]), shape=(2,),
+                      table_of_pixel=np.array([0, 1]))
+    flipped = dataclasses.replace(ramps, levels=ramps.levels[::-1])
+    assert np.array_equal(flipped.convert(volts2), Converter(
+        BITS, 0.0, 1.0, levels=np.vstack([two, one]), shape=(2,),
+        table_of_pixel=np.array([0, 1])).convert(volts2))
+    with pytest.raises(ValueError, match="transition levels"):
+        dataclasses.replace(conv, bits=BITS - 1)
+    assert conv.at([]).n_pixels == 0  # an empty subset of a converter with tables
+
+
+def test_levels_far_outside_the_range_and_overflowing_inputs_are_refused():
+    """A stray level at 1,000 LSB of a 2-bit converter (a unit mix-up) asked for a search LUT
+    over its whole span (1e9 LSB: ≈ 30 GiB); an input of 1e306 V overflowed to +inf LSB and the
+    table sums walked past the table's end. Both refused, naming what is wrong."""
+    with pytest.raises(ValueError, match="levels must lie within one range"):
+        check_transition_table([0.5, 1.5, 1000.0], 2)
+    check_transition_table([-3.5, 1.5, 7.5], 2)  # within one range on either side: accepted
+    rng = np.random.default_rng(4)
+    conv = Converter(BITS, 0.0, 1.0, levels=_random_table(rng, BITS)[None, :], shape=(1,))
+    assert np.isfinite(conv.expected(np.array([1e300]), 0.0)[0]).all()
+    with pytest.raises(ValueError, match="overflow"):
+        conv.expected(np.array([1e306]), 0.0)
+    mean, _ = conv.expected(np.array([0.5]), 1e300)  # 1e150 V rms: wide, finite, still sums
+    assert np.isfinite(mean).all()
