@@ -184,8 +184,10 @@ def trace_chunk(
                     if invariant > fp_na or gen.random() >= fp_open:
                         code = n_pix + LAYER + n_layers
                         break
-                    x += fp_pitch * (gen.random() - 0.5)
-                    y += fp_pitch * (gen.random() - 0.5)
+                    # exit − entry: a uniform place in the fibre entered, another where it
+                    # leaves, each axis a triangle on ±pitch (chiptwin.optics.faceplate)
+                    x += fp_pitch * (gen.random() - gen.random())
+                    y += fp_pitch * (gen.random() - gen.random())
                 p = _pixel_code(x, y, n_rows, n_cols, pitch, half_w, half_h)
                 code = n_pix + SILICON if p < 0 else p
                 break

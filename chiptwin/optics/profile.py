@@ -49,8 +49,8 @@ N_NODES: int = 4096
 _GL_X, _GL_W = gauss_legendre(8)
 
 
-def fresnel_unpolarised(n1: float, n2: float, beta: NDArray) -> NDArray:
-    """Unpolarised power transmittance ``(Tₛ + Tₚ)/2`` from index ``n1`` into ``n2``.
+def fresnel_polarised(n1: float, n2: float, beta: NDArray) -> tuple[NDArray, NDArray]:
+    """Power transmittances ``(Tₛ, Tₚ)`` from index ``n1`` into ``n2``.
 
     ``beta`` is Snell's invariant ``n·sinθ`` (must be ``<= min(n1, n2)``: no TIR here).
     ``Tₛ = 4 a b / (a + b)²`` with ``a = n1 cos θ1, b = n2 cos θ2``; ``Tₚ`` the same with
@@ -62,7 +62,15 @@ def fresnel_unpolarised(n1: float, n2: float, beta: NDArray) -> NDArray:
     with np.errstate(invalid="ignore", divide="ignore"):
         ts = prod / (n1 * c1 + n2 * c2) ** 2
         tp = prod / (n2 * c1 + n1 * c2) ** 2
-    return np.nan_to_num(0.5 * (ts + tp))
+    return np.nan_to_num(ts), np.nan_to_num(tp)
+
+
+def fresnel_unpolarised(n1: float, n2: float, beta: NDArray) -> NDArray:
+    """Unpolarised power transmittance ``(Tₛ + Tₚ)/2`` of one interface
+    (:func:`fresnel_polarised`). Through several, average the products, not multiply the
+    averages (see :func:`_rays`)."""
+    ts, tp = fresnel_polarised(n1, n2, beta)
+    return 0.5 * (ts + tp)
 
 
 def _arrays(layers: tuple[Layer, ...]) -> tuple[NDArray, NDArray, NDArray]:
@@ -107,9 +115,14 @@ def _rays(layers: tuple[Layer, ...], theta_m: NDArray, law: str):
                 drho += t_i * n_m * c_m / (n_i * c_i**3)
                 if a_i > 0:
                     optical_depth += a_i * t_i / c_i
-    weight = np.exp(-optical_depth)
+    # unpolarised light through a planar stack: the plane of incidence never changes, so s and
+    # p stay apart: (ΠTₛ + ΠTₚ)/2. The product of per-interface averages, Π(Tₛ + Tₚ)/2, is less
+    # whenever Tₛ ≠ Tₚ (−0.7 % of the plane fraction for water | Si₃N₄ | Si; −1.6 % two pixels out)
+    t_s, t_p = np.ones_like(theta_m), np.ones_like(theta_m)
     for i in range(len(n) - 1):
-        weight = weight * fresnel_unpolarised(n[i], n[i + 1], beta)
+        ts, tp = fresnel_polarised(n[i], n[i + 1], beta)
+        t_s, t_p = t_s * ts, t_p * tp
+    weight = np.exp(-optical_depth) * 0.5 * (t_s + t_p)
     return rho, _emission(n, theta_m, cos[0], law) * weight, drho
 
 

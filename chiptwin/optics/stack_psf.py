@@ -150,15 +150,30 @@ def point_rectangle_fraction_stack(
 
 
 def _blur_nodes(square_um: float, faceplate: Faceplate | None, n: int):
-    """Nodes over the square footprint ⊛ the faceplate's box (either, both or none)."""
-    sides = [s for s in (square_um, faceplate.fiber_pitch_um if faceplate else 0.0) if s > 0]
+    """Nodes over the square footprint ⊛ the faceplate's kernel (either, both or none)."""
+    kernels = [_footprint_nodes("square", square_um, n)] if square_um > 0 else []
+    if faceplate is not None and faceplate.fiber_pitch_um > 0:
+        kernels.append(_fiber_nodes(faceplate.fiber_pitch_um, n))
     qx, qy, w = np.zeros(1), np.zeros(1), np.ones(1)
-    for side in sides:
-        bx, by, bw = _footprint_nodes("square", side, n)
+    for bx, by, bw in kernels:
         qx = (qx[:, None] + bx[None, :]).ravel()
         qy = (qy[:, None] + by[None, :]).ravel()
         w = (w[:, None] * bw[None, :]).ravel()
     return qx, qy, w
+
+
+def _fiber_nodes(pitch_um: float, n: int):
+    """Nodes of the faceplate's displacement, exit − entry: the ray enters a fibre at a uniform
+    place (the lattice's phase against the site is unknown) and leaves uniformly over it, so each
+    axis is the difference of two uniforms over a pitch, a triangle on ±pitch (variance p²/6;
+    :mod:`chiptwin.optics.faceplate`). Gauss–Legendre on each half, its weight the triangle's
+    (linear there: exact for the weight times a polynomial); ``n`` nodes an axis (n/2 a half)."""
+    x, w = gauss_legendre(max(n // 2, 2))
+    t = 0.5 * pitch_um * (1.0 + x)  # [0, p]
+    wt = 0.5 * w * (1.0 - t / pitch_um)  # ∫ (1 − |t|/p)/p over a half: ½
+    q, qw = np.concatenate([-t[::-1], t]), np.concatenate([wt[::-1], wt])
+    qx, qy = np.meshgrid(q, q)
+    return qx.ravel(), qy.ravel(), np.outer(qw, qw).ravel()
 
 
 def _average(profile, dx, dy, half_w, half_h, nodes, n_w) -> NDArray:
@@ -273,7 +288,8 @@ def coupling_stack(
                         size if shape == "square" else 0.0, faceplate, atol)
     if faceplate is not None:
         values = values * faceplate.open_area_ratio
-    return values[inverse].reshape(rows * cols, sx.size)
+    # rounding leaves −1e-17 where no light lands: a share is never negative
+    return np.maximum(values, 0.0)[inverse].reshape(rows * cols, sx.size)
 
 
 # --- plane fractions and the collected fraction under each law ------------------------------------
