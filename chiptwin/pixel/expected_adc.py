@@ -42,12 +42,12 @@ Two ways to the two expectations over a Gaussian ``y``:
   nodes grow with the ratio of the shared rms to the white rms), on the converter's exact table
   sums.
 
-Accuracy (``tests/pixel/test_expected_adc.py``), against a trapezoid of 36001 points over ±9σ
+Accuracy (``tests/pixel/test_expected_adc.py``), against a trapezoid of 16001 points over ±8σ
 of the exact table sums: the series within 1e-12 LSB² (measured ≤ 2e-13, comparator noise
 0 … 1 LSB, read noise 0.13 … 1 LSB, shared rms 0.05 … 20 LSB, mismatch on), the quadrature within
 :data:`QUAD_TOL_LSB2` (measured ≤ 4e-9 LSB², white rms 0.01 … 1 LSB, shared rms 0.5 … 100× it)
-up to :data:`QUAD_MAX_RATIO`; beyond, the nodes thin out (measured 1e-4 … 7e-4 LSB² at 300×,
-against a shared variance of ≥ 9·10⁴ u²). Until this round the quadrature was Gauss–Hermite with
+up to :data:`QUAD_MAX_RATIO`; beyond, the nodes thin out (within 2e-3 LSB² at 300×, against a
+shared variance of 9·10⁴ u²). Until this round the quadrature was Gauss–Hermite with
 at most 192 nodes: E_y[v] was 50–100 % off at 20× (a true-CDS dark pixel's variance 0.0142
 against 0.0313 LSB² by Monte Carlo), where its stated bound had grown with σ_y². The CMS moments
 agree with a Monte Carlo of the binned kernel within its standard errors (same test).
