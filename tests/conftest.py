@@ -151,6 +151,8 @@ SLOW = {
     "tests/test_run.py::test_output_folder_is_never_a_stranger",
     "tests/test_run.py::test_closed_form_run_is_the_simpy_run",
     "tests/test_fidelity.py::test_auto_is_cheaper_than_the_reference_and_within_its_budget",
+    "tests/test_fidelity.py::test_a_study_resolves_auto_once_per_point_and_runs_the_level_it_picks",
+    "tests/test_fidelity.py::test_calibration_is_cached_per_scene",
     "tests/test_adc_levels.py::test_ladder_has_an_ideal_adc_row_with_its_error",
     "tests/test_adc_levels.py::"
     "test_auto_keeps_as_built_within_a_tight_budget_and_takes_ideal_within_a_loose_one",
