@@ -259,3 +259,22 @@ def test_errors():
     with pytest.raises(ValueError, match="method"):
         sp.coupling_stack(**CHIP, site_x_um=[1.0], site_y_um=[1.0], stack=HOMOGENEOUS,
                           emitter="isotropic", method="exact")
+
+
+@pytest.mark.parametrize(("side", "pitch"), [(0.0, 6.0), (10.0, 6.0), (4.0, 13.0), (12.0, 3.0)])
+def test_blur_nodes_have_the_moments_of_the_footprint_and_fibre_kernels(side, pitch):
+    """A square footprint (uniform over its side) ⊛ the faceplate's exit − entry (a triangle on
+    ± the pitch, variance p²/6) is separable: one axis's nodes integrate its moments exactly,
+    Var = s²/12 + p²/6 and E[X⁴] = s⁴/80 + 6·(s²/12)·(p²/6) + p⁴/15 (closed forms), with n² nodes
+    in two dimensions, not n⁴ (a square footprint under a faceplate never finished on a 5 × 5
+    grid)."""
+    from chiptwin.optics.faceplate import Faceplate
+
+    q, w = sp._axis_nodes(side, pitch, 16)
+    assert w.min() > 0 and w.sum() == pytest.approx(1.0, abs=1e-15)
+    assert w @ q == pytest.approx(0.0, abs=1e-12)
+    assert w @ q**2 == pytest.approx(side**2 / 12 + pitch**2 / 6, rel=1e-12)
+    want4 = side**4 / 80 + 6 * (side**2 / 12) * (pitch**2 / 6) + pitch**4 / 15
+    assert w @ q**4 == pytest.approx(want4, rel=1e-12)
+    qx, _, wx = sp._blur_nodes(side, Faceplate(1.0, pitch, 100.0, 0.8, 1.6), 16)
+    assert qx.size == q.size**2 and wx.sum() == pytest.approx(1.0, abs=1e-14)
