@@ -141,7 +141,7 @@ class Calibrations(CachedEstimates):
             return Estimate(dict.fromkeys(FIGURES, math.inf),
                             f"the {d.acc_bits}-bit N-frame accumulator can wrap: fixed differs "
                             "from float without bound")
-        lsb = _rounding_bound_lsb(chain, d.cms_samples, d.n_dark_frames, d.average_frames)
+        lsb = _rounding_bound_lsb(chain)
         how = ("M, K, N powers of two: the fixed chain is exact" if lsb == 0 else
                f"the chain's rounding, at most {lsb:.3g} LSB per output")
         if not is_default(d.program):
@@ -224,20 +224,18 @@ def _with_snr(spent: dict[str, float]) -> dict[str, float]:
     return {**spent, "snr_rel": snr_rel, "snr_db": 10 * math.log10(1 + snr_rel)}
 
 
-def _rounding_bound_lsb(chain, m: int, k: int, n: int) -> float:
-    """Largest |fixed − float| of an N-frame average, in ADC LSB: half an output LSB per step
-    that rounds (a division by M, K or N that is not a power of two), carried through the
-    subtraction (CMS frame minus dark reference) and the averages (means of bounded errors)."""
-    def half_ulp(fmt, divisor: int) -> float:
-        return 0.0 if divisor & (divisor - 1) == 0 else 0.5 * 2.0 ** -fmt.frac_bits
+def _rounding_bound_lsb(chain) -> float:
+    """Largest |fixed − float| of an N-frame average, in ADC LSB, over every input the chain's
+    formats hold: each divide step's rounding and its rounded reciprocal's error
+    (:func:`chiptwin.dsp.errors.divide_bound`: M, K and N that are not powers of two; TRN rounds
+    by up to a whole LSB), carried through the subtraction (CMS frame minus dark reference, its
+    own rounding) and the averages (means of bounded errors). 0 when M, K and N are powers of
+    two (the chain's extra fractional bits keep every step exact)."""
+    from chiptwin.dsp.errors import divide_bound, subtract_bound
 
-    cms = half_ulp(chain.cms.out_fmt, m)
-    dark = cms + half_ulp(chain.dark.out_fmt, k)
-    exact_diff = chain.background.out_fmt.frac_bits >= max(chain.cms.out_fmt.frac_bits,
-                                                           chain.dark.out_fmt.frac_bits)
-    background = cms + dark + (0.0 if exact_diff else 0.5 * 2.0 ** -chain.background.out_fmt
-                               .frac_bits)
-    return background + half_ulp(chain.average.out_fmt, n)
+    cms = divide_bound(chain.cms)
+    dark = cms + divide_bound(chain.dark)
+    return cms + dark + subtract_bound(chain.background) + divide_bound(chain.average)
 
 
 def _raytrace_note(s: Scenario) -> str:
