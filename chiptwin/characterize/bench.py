@@ -16,6 +16,7 @@ of :func:`chiptwin.pixel.mean_electrons` as its "photons" with unit QE and gain:
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
@@ -169,13 +170,18 @@ class Bench:
             How many (for progress).
         """
         a = self.scenario.chip.adc
+        frames = iter(frames)
+        first = next(frames)
+        # the chip's converters as built (comparator noise, mismatch, INL/DNL), each pixel's own
+        # under every tile of the mosaic: the bench once read through an ideal ADC, so none of
+        # them reached the datasheet
+        conv = sensor.converter.at(np.arange(first.size) % sensor.converter.n_pixels)
         chain = pixel.sensor_chain(
-            rng, frames, qe=1.0, dark_e=0.0, full_well_e=sensor.full_well_e,
-            read_noise_e=sensor.read_noise_e,
+            rng, itertools.chain([first], frames), qe=1.0, dark_e=0.0,
+            full_well_e=sensor.full_well_e, read_noise_e=sensor.read_noise_e,
             conversion_gain_uV_per_e=sensor.conversion_gain_uV_per_e, ktc_e=sensor.ktc_e,
             true_cds=sensor.true_cds, n_samples=sensor.cms_samples, read_reset=True,
-            pedestal_V=sensor.pedestal_V, bits=a.bits, v_min_V=a.v_min_V, v_max_V=a.v_max_V,
-            offset_lsb=a.offset_error_lsb, gain_error=a.gain_error)
+            pedestal_V=sensor.pedestal_V, converter=conv)
         top = 2**a.bits - 1
         for done, (reset, signal) in enumerate(chain, start=1):
             self.clipped += int(np.count_nonzero((reset == 0) | (reset == top)))

@@ -237,8 +237,10 @@ def _read_noise(doc: _Doc, s: Scenario, cap_fF: float) -> float:
         doc.fail("camera.cms_samples", m, "must be an integer ≥ 1 (the CMS samples M)")
     var = sigma_d**2
     if not s.chip.pixel.true_cds:
-        temp_k = (doc.camera_value("temperature_C", lo=-273.15) or s.chip.pixel.temperature_C)
-        ktc2 = K_B * (temp_k + ZERO_C_K) * cap_fF * 1e-15 / Q_E**2
+        temp_c = doc.camera_value("temperature_C", lo=-273.15)
+        if temp_c is None:  # not `or`: a datasheet measured at 0 °C states a temperature
+            temp_c = s.chip.pixel.temperature_C
+        ktc2 = K_B * (temp_c + ZERO_C_K) * cap_fF * 1e-15 / Q_E**2
         var -= 2.0 * ktc2
         if var < 0:
             doc.fail("parameters.temporal_dark_noise.value", sigma_d,

@@ -249,3 +249,62 @@ def chip_scenario_file(folder: Path) -> Path:
         path.write_text(SCENARIO.format(sheet="x", extra="").replace(
             'from_datasheet = "x"\n', ""))
     return path
+
+
+def test_the_bench_reads_through_the_chips_converters_as_built():
+    """EMVA 1288 measures the chip a run simulates: with comparator noise, gain mismatch and INL
+    on ([chip.adc]), the bench's CMS frames are bit for bit the run's chain reading through the
+    chip's converters (the bench once read through an ideal ADC: σ_y.dark 2.87 DN where the chip
+    has 3.91, PRNU 1.05 % for 3.54 %), and its dark frames carry the comparator's 2 LSB:
+    the pair's variance exceeds the ideal ADC's by 2·2²/M ± 25 % (M samples a side)."""
+    import copy
+
+    from chiptwin import pixel
+    from chiptwin.characterize.bench import Bench
+    from chiptwin.config.load import scenario_from_dict
+    from tests.characterize.conftest import CHIPS, FLUX
+
+    def chip(**adc):
+        raw = copy.deepcopy(FLUX)
+        raw["chip"] = copy.deepcopy(CHIPS["adc10"])
+        raw["chip"]["adc"].update(adc)
+        raw["chip"]["fixed_pattern_seed"] = 5
+        return scenario_from_dict(raw, "<adc10>")
+
+    built = Bench(chip(comparator_noise_lsb=2.0, gain_sigma=0.03, inl_max_lsb=8.0))
+    ideal = Bench(chip())
+    s = built.sensor
+    assert not s.converter.ideal
+    dark = built.expected_e(s, 0.0, 0.02, 1)
+    got = [img for img, _ in built.read(np.random.default_rng(0), s, [dark, dark], 2)]
+    kw = dict(qe=1.0, dark_e=0.0, full_well_e=s.full_well_e, read_noise_e=s.read_noise_e,
+              conversion_gain_uV_per_e=s.conversion_gain_uV_per_e, ktc_e=s.ktc_e,
+              true_cds=s.true_cds, n_samples=s.cms_samples, read_reset=True,
+              pedestal_V=s.pedestal_V, converter=s.converter)
+    want = [built.cms(r, sg) for r, sg in
+            pixel.sensor_chain(np.random.default_rng(0), iter([dark, dark]), **kw)]
+    assert all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
+    pair = [img for img, _ in ideal.read(np.random.default_rng(0), ideal.sensor,
+                                         [dark, dark], 2)]
+    extra = np.var(got[0] - got[1]) / 2 - np.var(pair[0] - pair[1]) / 2
+    assert extra == pytest.approx(2 * 2.0**2 / s.cms_samples, rel=0.25)
+
+
+def test_a_datasheet_measured_at_0_celsius_takes_its_kTC_at_0_celsius(tmp_path):
+    """``temperature_C = 0.0`` is a temperature, not a missing one: with true_cds = false the
+    read noise is √((σ_d² − 2·kTC²(0 °C))/2) (18.174 e⁻ here), not the scenario's 25 °C figure
+    (13.992 e⁻; the datasheet's 0.0 once read as absent)."""
+    from chiptwin.constants import K_B, Q_E
+
+    doc = {"camera": {"adc_bits": 10, "cms_samples": 1, "temperature_C": 0.0},
+           "parameters": {"quantum_efficiency": {"value": 40.0},
+                          "system_gain": {"value": 0.0164},
+                          "temporal_dark_noise": {"value": 60.0},
+                          "saturation_capacity": {"value": 30000.0}}}
+    (tmp_path / "ds.json").write_text(json.dumps(doc))
+    (tmp_path / "s.toml").write_text(SCENARIO.format(
+        sheet="ds.json", extra="true_cds = false\ntemperature_C = 25.0"))
+    s = load_scenario(tmp_path / "s.toml")
+    ktc2 = K_B * 273.15 * s.chip.pixel.capacitance_fF * 1e-15 / Q_E**2
+    assert s.chip.pixel.read_noise_e == pytest.approx(((60.0**2 - 2 * ktc2) / 2) ** 0.5,
+                                                      rel=1e-12)
