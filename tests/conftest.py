@@ -195,6 +195,7 @@ SLOW = {
     "tests/kinetics/test_cascade.py::test_source_is_a_light_source_and_photons_integrate_its_rate",
     "tests/kinetics/test_pulse_train.py::test_pyrosequencing_like_train_over_many_windows",
     "tests/kinetics/test_phasing.py::test_cascade_incorporations_equal_the_phasing_model",
+    "tests/test_detection.py::test_detection_is_one_sided",
     "tests/validation/test_dose_response.py::"
     "test_blank_three_sigma_threshold_gives_the_normal_false_positive_rate",
     "tests/validation/test_chunk_equivalence.py::"

@@ -44,3 +44,22 @@ def test_snr_without_noise():
     power, amplitude = snr(np.array([5.0, -5.0, 0.0, 3.0]), np.array([0.0, 0.0, 0.0, 1.5]))
     assert list(amplitude) == [np.inf, -np.inf, 0.0, 2.0]
     assert list(power) == [np.inf, np.inf, 0.0, 4.0]
+
+
+def test_detection_is_one_sided():
+    """No light (atp_glow at 1e-9 fmol), a threshold of power SNR 1 (amplitude 1), 30 seeds ×
+    3 sites: a site whose estimate is strongly negative is no detection, so the rate is
+    P(Z > 1) = 0.159 ± 4 binomial σ, not the two-sided 0.317 it was (12 of 25 detections had a
+    negative signal)."""
+    import chiptwin
+
+    signed, detected = [], []
+    for seed in range(30):
+        r = chiptwin.run("atp_glow", ["assay.atp_fmol=1e-9", "run.detection_snr_power=1"],
+                         seed=seed)
+        signed += [s["signal_e"] / s["noise_e"] for s in r.summary["sites"]]
+        detected += [s["detected"] for s in r.summary["sites"]]
+    z, det = np.array(signed), np.array(detected)
+    assert z.size == 90 and not np.any(det & (z < 0))
+    p = 0.1587
+    assert abs(det.mean() - p) <= 4 * np.sqrt(p * (1 - p) / z.size)

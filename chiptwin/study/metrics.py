@@ -101,8 +101,9 @@ _METRICS = [
     Metric("base_error_rate", "rate", "bases", "per-base errors (edit distance of each called "
            "read to the template, clamped at its length) of the template's bases over all "
            "sites", _base_errors, pyro_only=True),
-    Metric("sites_detected", "rate", "sites", "sites whose power SNR reaches "
-           "run.detection_snr_power", _detected),
+    Metric("sites_detected", "rate", "sites", "sites whose signed amplitude SNR reaches "
+           "√run.detection_snr_power (light adds: a negative estimate is no detection)",
+           _detected),
     Metric("results_valid", "rate", "runs", "runs whose figures are trustworthy (no memory "
            "overflow, DSP keeping up, no ADC clipping)",
            lambda r: (int(r.summary["results_valid"]), 1)),

@@ -7,6 +7,8 @@ statistics themselves (SNR, window sums) are pure functions in :mod:`chiptwin.de
 
 from __future__ import annotations
 
+import math
+
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -154,7 +156,9 @@ def _site_rows(s: Scenario, rc: np.ndarray, signal: np.ndarray, noise: np.ndarra
     return [
         {"id": i, "pixel": [int(r), int(c)], "signal_e": float(signal[i]),
          "noise_e": float(noise[i]), "snr_power": float(p[i]), "snr_amplitude": float(a[i]),
-         "detected": bool(p[i] >= s.run.detection_snr_power),
+         # one-sided: light adds to the signal; a strongly negative estimate (|a|² above the
+         # threshold) is no detection (counted as one, the no-light false-detection rate doubled)
+         "detected": bool(a[i] >= math.sqrt(s.run.detection_snr_power)),
          "peak_frame_signal_e": float(values[peak[i], i]),
          "peak_frame_snr_power": float(frame_snr[peak[i], i])}
         for i, (r, c) in enumerate(rc)
