@@ -99,6 +99,10 @@ def loss_db_interval(x: np.ndarray, ref: np.ndarray, confidence: float) -> Estim
     if mx <= 0 or mr <= 0:
         return Estimate(math.inf, -math.inf, math.inf, -math.inf, math.inf, n,
                         "delta method (SNR ≤ 0: undefined)")
+    if math.isinf(mx) or math.isinf(mr):  # a noiseless side: no interval (log10(0) raised)
+        value = 0.0 if mx == mr else (math.inf if math.isinf(mr) else -math.inf)
+        return Estimate(value, -math.inf, math.inf, -math.inf, math.inf, n,
+                        "delta method (an infinite SNR: no interval)")
     value = 10 * math.log10(mr / mx)
     if n < 2:
         return Estimate(value, -math.inf, math.inf, -math.inf, math.inf, n, "delta method t")

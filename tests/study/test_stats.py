@@ -77,3 +77,17 @@ def test_decisions_use_the_bound_on_each_side():
     assert decide(rate_estimate(50, 100, 10, 0.95), "<=", 0.1) == "fail"
     assert decide(rate_estimate(100, 100, 50, 0.95), ">=", 0.99) == "undecided"
     assert decide(rate_estimate(1000, 1000, 500, 0.95), ">=", 0.99) == "pass"
+
+
+def test_loss_of_a_noiseless_side_is_infinite_or_zero_and_undecided():
+    """A point whose power SNR is infinite (no noise) made log10(0) raise; now the loss is −inf
+    against a finite reference (+inf the other way, 0 both noiseless) with no interval, so no
+    requirement is decided on it."""
+    from chiptwin.detection.stats import loss_db_interval
+
+    inf = np.inf
+    better = loss_db_interval(np.array([inf, inf]), np.array([10.0, 11.0]), 0.9)
+    worse = loss_db_interval(np.array([10.0, 11.0]), np.array([inf, inf]), 0.9)
+    both = loss_db_interval(np.array([inf, inf]), np.array([inf, inf]), 0.9)
+    assert (better.value, worse.value, both.value) == (-inf, inf, 0.0)
+    assert all((e.lo, e.hi) == (-inf, inf) for e in (better, worse, both))
