@@ -58,7 +58,8 @@ class Store:
         self._claim(study)
 
     def _claim(self, study: Any) -> None:
-        row = self.db.execute("SELECT text, hash, base_scenario, datasheet FROM study").fetchone()
+        row = self.db.execute("SELECT text, hash, base_scenario, datasheet, chiptwin_version "
+                              "FROM study").fetchone()
         base = json.dumps(study.base_raw, sort_keys=True)
         if row is None:
             self.db.execute("INSERT INTO study VALUES (1, ?, ?, ?, ?, ?, ?, ?)",
@@ -72,6 +73,11 @@ class Store:
             raise ScenarioError(study.source, "(resume)", self.path,
                                 "this folder holds another version of the study: " + change
                                 + "; use --fresh to start over, or another --out")
+        if row[4] != __version__:  # another model's rows would be mixed into one table
+            raise ScenarioError(study.source, "(resume)", self.path,
+                                f"its rows were made by chiptwin {row[4]}, this is "
+                                f"{__version__}: resuming would mix two models' rows in one "
+                                "table; use --fresh to start over, or another --out")
 
     def done(self) -> set[tuple[str, int]]:
         """``(point, replicate)`` of every stored row."""

@@ -132,6 +132,19 @@ def test_changed_study_is_refused_for_resumption(small_study, tmp_path):
                  "--fresh"]) == 0
 
 
+def test_rows_of_another_chiptwin_version_are_refused_for_resumption(small_study, tmp_path):
+    """A store whose rows another version of chiptwin made is not resumed into this one's table
+    (it was: the rows mixed, study.json stating one version for all)."""
+    import sqlite3
+
+    db = tmp_path / "results.sqlite"
+    run_study(small_study, workers=1, db=db)
+    with sqlite3.connect(db) as con:
+        con.execute("UPDATE study SET chiptwin_version = '0.0.1-old-model'")
+    with pytest.raises(ScenarioError, match=r"made by chiptwin 0.0.1-old-model.*--fresh"):
+        run_study(small_study, workers=1, db=db)
+
+
 def test_study_refuses_a_folder_that_is_not_a_chiptwin_output(small_study, tmp_path, capsys):
     out = tmp_path / "mine"
     out.mkdir()
