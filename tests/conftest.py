@@ -169,6 +169,7 @@ SLOW = {
     "tests/characterize/test_adc_bench.py::test_injected_table_and_noise_round_trip",
     "tests/characterize/test_adc_bench.py::test_reference_chip_seconds",
     "tests/characterize/test_adc1241.py::test_bench_end_to_end",
+    "tests/characterize/test_evaluate.py::test_sensitivity_threshold_sigma_matches_its_spread",
     "tests/characterize/test_adc1241.py::test_transition_noise_rms_sigma_counts_shared_conversions",
     "tests/optics/test_raytrace.py::test_optiland_cross_check",
     "tests/optics/test_psf.py::test_footprint_quadrature_meets_its_tolerance",

@@ -109,7 +109,7 @@ def build_datasheet(m: Measurement, s: Scenario) -> Datasheet:
         "temporal_dark_noise": sigma_d,
         "temporal_dark_noise_dn": sigma_y,
     }
-    f.update(_saturation_figures(m, i_sat, qe, rel_qe, sigma_y, gain, gain_se))
+    f.update(_saturation_figures(m, i_sat, qe, rel_qe, sigma_y, gain, gain_se, resp, resp_se))
     f["dark_current"], f["dark_current_from_variance"] = ev.dark_current(t, gain, gain_se)
     f["doubling_temperature"] = ev.doubling_temperature(m.temperature, gain)
     f.update(ev.nonuniformity(m.spatial, gain, gain_se))
@@ -133,7 +133,8 @@ def build_datasheet(m: Measurement, s: Scenario) -> Datasheet:
 
 
 def _saturation_figures(m: Measurement, i_sat: int, qe: float, rel_qe: float, sigma_y: Figure,
-                        gain: float, gain_se: float) -> dict[str, Figure]:
+                        gain: float, gain_se: float, resp: float, resp_se: float
+                        ) -> dict[str, Figure]:
     """μ_p.sat, μ_e.sat, SNR_max, μ_p.min, μ_e.min and DR, with errors and grid resolution."""
     t, area = m.temporal, m.camera.pixel_area_um2
     step = float(t.mu_p[1] - t.mu_p[0])
@@ -146,7 +147,12 @@ def _saturation_figures(m: Measurement, i_sat: int, qe: float, rel_qe: float, si
     floored = sigma_y.value ** 2 < ev.QUANTISATION_FLOOR_DN2
     rel_u = gain_se / gain if floored else np.hypot((sigma_y.std_error or 0) / s_y, gain_se / gain)
     du = u / np.sqrt(u * u + 0.25) * u * rel_u  # error of η·μ_p.min from u
-    p_min_se = float(np.hypot(p_min * rel_qe, du / qe))
+    # μ_p.min = (√(σ_y² + K²/4) + K/2)/R: K's error nearly cancels (η = R/K and u = σ_y/K both
+    # carry it; counting it in each stated σ 9× its Monte Carlo spread), so each input's own term
+    root = np.sqrt(s_y * s_y + gain * gain / 4)
+    s_y_se = 0.0 if floored else (sigma_y.std_error or 0.0)
+    p_min_se = float(np.sqrt((s_y / root * s_y_se) ** 2 + ((gain / (4 * root) + 0.5) * gain_se)
+                             ** 2 + (p_min * resp_se) ** 2) / resp)
     dr, rel_dr = p_sat / p_min, p_min_se / p_min
     snr, db = float(np.sqrt(e_sat)), 20.0 / np.log(10.0)
     return {
