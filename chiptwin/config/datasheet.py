@@ -198,7 +198,7 @@ def datasheet_values(doc: _Doc, s: Scenario) -> dict[str, tuple[Any, str]]:
     fill = doc.camera_value("fill_factor") or px.diode_w_um * px.diode_h_um / s.chip.pitch_um**2
     out["chip.pixel.qe"] = (doc.figure("quantum_efficiency") / 100.0 / fill,
                             "parameters.quantum_efficiency.value")
-    out["chip.pixel.read_noise_e"] = (_read_noise(doc, s, cap_fF),
+    out["chip.pixel.read_noise_e"] = (_read_noise(doc, s, cap_fF, gain),
                                       "parameters.temporal_dark_noise.value")
     full_well = doc.figure("saturation_capacity") + _dark_at_saturation(doc)
     out["chip.pixel.full_well_e"] = (full_well, "parameters.saturation_capacity.value")
@@ -229,24 +229,50 @@ def _dark_at_saturation(doc: _Doc) -> float:
     return dark * p_sat / (irr * pitch * pitch)
 
 
-def _read_noise(doc: _Doc, s: Scenario, cap_fF: float) -> float:
-    """Read noise per sample from σ_d of an M + M sample CMS difference (kTC without true CDS)."""
+def _read_noise(doc: _Doc, s: Scenario, cap_fF: float, gain: float) -> float:
+    """Read noise per sample σ_r whose CMS dark frame has the datasheet's temporal dark noise.
+
+    The datasheet's σ_y.dark (DN; else ``K²σ_d² + 1/12``: EMVA's σ_d removes one LSB²/12) is the
+    twin's dark CMS frame, the mean of M signal samples minus the mean of M reset samples:
+    ``σ²_y.dark = K²·(2σ_r²/M + 2·kTC²) + 2·q(M, K·σ_r)`` DN², kTC² only without true CDS and
+    ``q`` the rounding variance of a mean of M codes (:func:`~chiptwin.pixel.adc.quantization_var_of_mean`,
+    1/12 at no noise, 1/(12M) from ≈ 0.5 LSB). ``q`` falls as the noise grows, so in the
+    quantisation regime two read noises can give the same σ_y.dark: the larger is taken (the
+    worst chip the datasheet allows). Until a review found it this took σ_d for pure pixel noise,
+    √(σ_d²·M/2): a round trip added (2/12 − 1/12)/K² e⁻² of noise each time (σ_d +12 % on a
+    10-bit chip), and the reference datasheet's twin read 426 e⁻ for the chip's 100."""
+    from scipy.optimize import brentq
+
+    from chiptwin.pixel.adc import quantization_var_of_mean
+
     sigma_d = doc.figure("temporal_dark_noise")
     m = doc.camera.get("cms_samples", 1)
     if type(m) is not int or m < 1:
         doc.fail("camera.cms_samples", m, "must be an integer ≥ 1 (the CMS samples M)")
-    var = sigma_d**2
+    ktc2 = 0.0
     if not s.chip.pixel.true_cds:
         temp_c = doc.camera_value("temperature_C", lo=-273.15)
         if temp_c is None:  # not `or`: a datasheet measured at 0 °C states a temperature
             temp_c = s.chip.pixel.temperature_C
         ktc2 = K_B * (temp_c + ZERO_C_K) * cap_fF * 1e-15 / Q_E**2
-        var -= 2.0 * ktc2
-        if var < 0:
-            doc.fail("parameters.temporal_dark_noise.value", sigma_d,
-                     f"is below the kTC noise of the CDS difference, √2·{math.sqrt(ktc2):.4g} "
-                     "e⁻, which the scenario's chip (true_cds = false) cannot beat")
-    return math.sqrt(var * m / 2.0)
+    sigma_y = doc.figure("temporal_dark_noise_dn")
+    target = sigma_y**2 if sigma_y is not None else (gain * sigma_d) ** 2 + 1.0 / 12
+
+    def excess(sr: float) -> float:
+        return (gain * gain * (2.0 * sr * sr / m + 2.0 * ktc2)
+                + 2.0 * quantization_var_of_mean(m, gain * sr) - target)
+
+    top = math.sqrt(target * m / 2.0) / gain * 1.01 + 1e-9  # excess(top) > 0
+    grid = [top * i / 4000 for i in range(4001)]
+    values = [excess(x) for x in grid]
+    below = [i for i in range(4000) if values[i] <= 0.0 < values[i + 1]]
+    if not below:
+        doc.fail("parameters.temporal_dark_noise.value", sigma_d,
+                 f"is below what the scenario's chip can read: no read noise gives σ_y.dark = "
+                 f"{math.sqrt(target):.4g} DN through its CMS (M = {m}: the rounding of the "
+                 "means" + (", and the kTC noise without true CDS" if ktc2 else "") + ")")
+    i = below[-1]
+    return float(brentq(excess, grid[i], grid[i + 1], xtol=1e-12, rtol=1e-12))
 
 
 def _dark(doc: _Doc, s: Scenario) -> dict[str, tuple[Any, str]]:

@@ -75,7 +75,7 @@ def _value(doc: dict, key: str) -> float:
 
 def test_datasheet_configures_the_scenario(sheet, tmp_path):
     """Every pixel and ADC value is its figure inverted through the model: qe = η/fill factor,
-    C = q/(K·LSB), read noise = σ_d·√(M/2), full well = μ_e.sat + the dark charge at saturation,
+    C = q/(K·LSB), read noise from σ_y.dark through the twin's CMS, full well = μ_e.sat + the dark charge at saturation,
     J at the reference temperature, T_d, PRNU, DSNU/(μ_I·t_spatial), pedestal from the reset
     level, ADC bits."""
     s = load_scenario(_write(tmp_path, sheet))
@@ -84,7 +84,13 @@ def test_datasheet_configures_the_scenario(sheet, tmp_path):
     assert adc.bits == 10
     assert px.qe == pytest.approx(_value(sheet, "quantum_efficiency") / 100 / (100 / 144))
     assert px.capacitance_fF == pytest.approx(Q_E / (_value(sheet, "system_gain") * lsb) * 1e15)
-    assert px.read_noise_e == pytest.approx(_value(sheet, "temporal_dark_noise") / np.sqrt(2))
+    # read noise: the twin's dark CMS frame has the datasheet's σ_y.dark (true CDS, M samples)
+    from chiptwin.pixel.adc import quantization_var_of_mean
+
+    k, m, r = _value(sheet, "system_gain"), sheet["camera"].get("cms_samples", 1), px.read_noise_e
+    assert px.true_cds
+    twin = k * k * 2 * r * r / m + 2 * quantization_var_of_mean(m, k * r)
+    assert twin == pytest.approx(_value(sheet, "temporal_dark_noise_dn") ** 2, rel=1e-9)
     t_sat = _value(sheet, "saturation_irradiation") / (
         sheet["conditions"]["irradiance_photons_per_s_per_um2"] * 144.0)
     assert px.full_well_e == pytest.approx(
@@ -291,10 +297,12 @@ def test_the_bench_reads_through_the_chips_converters_as_built():
 
 
 def test_a_datasheet_measured_at_0_celsius_takes_its_kTC_at_0_celsius(tmp_path):
-    """``temperature_C = 0.0`` is a temperature, not a missing one: with true_cds = false the
-    read noise is √((σ_d² − 2·kTC²(0 °C))/2) (18.174 e⁻ here), not the scenario's 25 °C figure
-    (13.992 e⁻; the datasheet's 0.0 once read as absent)."""
+    """``temperature_C = 0.0`` is a temperature, not a missing one (it once read as absent and
+    took the scenario's 25 °C): with true_cds = false the read noise makes the twin's dark CMS
+    frame σ²_y.dark = K²σ_d² + 1/12 with kTC at 0 °C, K²(2σ_r²/M + 2kTC²) + 2q(M, Kσ_r), to
+    1e-9 DN², and at 25 °C it does not."""
     from chiptwin.constants import K_B, Q_E
+    from chiptwin.pixel.adc import quantization_var_of_mean
 
     doc = {"camera": {"adc_bits": 10, "cms_samples": 1, "temperature_C": 0.0},
            "parameters": {"quantum_efficiency": {"value": 40.0},
@@ -305,6 +313,12 @@ def test_a_datasheet_measured_at_0_celsius_takes_its_kTC_at_0_celsius(tmp_path):
     (tmp_path / "s.toml").write_text(SCENARIO.format(
         sheet="ds.json", extra="true_cds = false\ntemperature_C = 25.0"))
     s = load_scenario(tmp_path / "s.toml")
-    ktc2 = K_B * 273.15 * s.chip.pixel.capacitance_fF * 1e-15 / Q_E**2
-    assert s.chip.pixel.read_noise_e == pytest.approx(((60.0**2 - 2 * ktc2) / 2) ** 0.5,
-                                                      rel=1e-12)
+    k, r = 0.0164, s.chip.pixel.read_noise_e
+    target = (k * 60.0) ** 2 + 1 / 12
+
+    def dark_var(temp_c):
+        ktc2 = K_B * (temp_c + 273.15) * s.chip.pixel.capacitance_fF * 1e-15 / Q_E**2
+        return k * k * (2 * r * r + 2 * ktc2) + 2 * quantization_var_of_mean(1, k * r)
+
+    assert dark_var(0.0) == pytest.approx(target, abs=1e-9)
+    assert abs(dark_var(25.0) - target) > 1e-4
