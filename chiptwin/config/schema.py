@@ -557,7 +557,8 @@ class Run:
     duration_s: float = param(lo=T_MIN, hi=T_MAX, doc="s of chip time; " + TIMES)
     detection_snr_power: float = param(
         10.0, lo=1e-6, hi=1e12,
-        doc="power SNR (eq. 22) above which a site is detected; 1e-6 (−60 dB) … 1e12 (120 dB, "
+        doc="power SNR (eq. 22) above which a site is detected (one-sided: a positive signal "
+            "whose amplitude SNR reaches its square root); 1e-6 (−60 dB) … 1e12 (120 dB, "
             "beyond any sensor's dynamic range)"
     )
     light_estimator: str = param(
