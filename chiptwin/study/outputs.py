@@ -91,6 +91,11 @@ def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
     requirement = {r.split()[0]: (r.split()[1], float(r.split()[2]))
                    for r in summary["requirement"]}
     answers = [a["point"] for a in summary["answer"] if a.get("point")]
+    # the band is each point's interval at the level it was decided at: the study's for a grid,
+    # the per-look level for a bisection (Bonferroni over its looks)
+    levels = {p["confidence"] for p in points if p.get("confidence") is not None}
+    band = (f"{levels.pop():.4g}" if len(levels) == 1 else "per-point") if levels else \
+        f"{summary['confidence']:.4g}"
     plots = []
     for axis in budget:
         for name in names:
@@ -123,13 +128,13 @@ def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
                     ax.step(c[:, 0], c[:, 1], "k:", where="mid", label="capacity")
             _log_if_wide(ax, axis, points, name)
             ax.set(xlabel=axis, ylabel=f"{name} ({CATALOGUE[name].unit})")
-            ax.set_title(f"{name} vs {axis} ({summary['confidence']:.0%} interval band)",
-                         fontsize=9)
+            ax.set_title(f"{name} vs {axis} (band: {band} confidence interval)", fontsize=9)
             if ax.get_legend_handles_labels()[0]:
                 ax.legend(fontsize=7)
             fname = f"{name}_vs_{axis.replace('.', '_')}.png"
             plots.append(_save(fig, folder, fname, f"{name} against {axis}; band: two-sided "
-                               f"{summary['confidence']:.0%} interval; star: the answer"))
+                               f"interval at {band} confidence (for a bisection its per-look "
+                               "level); star: the answer"))
     if len(budget) >= 2:
         plots.append(_heat_map(summary, budget, folder))
     return plots

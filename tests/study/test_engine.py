@@ -184,3 +184,23 @@ def test_a_changed_datasheet_is_refused_for_resumption(tmp_path):
     sheet.write_text(json.dumps(data, indent=2) + "\n")  # same content, new text: still new
     with pytest.raises(ScenarioError, match="datasheet"):
         run_study(path, workers=1, db=db)
+
+
+def test_a_bisections_bands_are_labelled_at_their_per_look_level(tmp_path):
+    """A bisection decides each point at 1 − (1 − c)/looks (Bonferroni over its looks); the
+    plots' band and caption say that level (0.9667 for 0.9 over 3 looks), not the study's 0.9,
+    which they once printed over intervals drawn at the per-look level."""
+    from chiptwin.study.outputs import write_study_outputs
+    from tests.study.conftest import STUDY, write_study
+
+    text = STUDY.replace("replicates = 3", 'replicates = 6\nsearch = "bisect"\nbatch = 2')
+    text = text.replace("values = [6, 8, 10]", "values = [6, 7, 8, 9, 10, 11]")
+    text = text.replace('"<= 0.2"', '"<= 0.01"')
+    result = run_study(load_study(write_study(tmp_path, text)), workers=1)
+    levels = {p["confidence"] for p in result.summary["points"] if p["confidence"]}
+    assert len(levels) == 1 and levels.pop() == pytest.approx(1 - 0.1 / 3)
+    out = tmp_path / "out"
+    out.mkdir()
+    write_study_outputs(result, out)
+    report = (out / "report.md").read_text()
+    assert "interval at 0.9667 confidence" in report and "at 0.9 confidence" not in report
