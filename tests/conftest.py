@@ -74,7 +74,7 @@ def in_ci() -> bool:
 def unavailable(what: str) -> NoReturn:
     """A test's tool is missing (``what`` says which and how to install it): skip on a
     developer's machine, fail under ``CI=true``, where scripts/test.sh installs every tool — the
-    suite's only skips besides test_kill's ``/proc`` (README, "Quick start")."""
+    suite's only skips (test_kill's ``/proc`` too; README, "Quick start")."""
     if not in_ci():
         pytest.skip(what)
     pytest.fail(f"CI=true and a test cannot run: {what}", pytrace=False)
