@@ -215,10 +215,13 @@ SLOW_S = 1.5
 
 def _check_slow_entries() -> None:
     """Every :data:`SLOW` entry names a test module, and a function defined in it."""
+    texts: dict[str, str] = {}  # each module read once
     for entry in SLOW:
         module, _, function = entry.partition("::")
         path = ROOT / module
-        if not path.is_file() or (function and f"def {function}(" not in path.read_text()):
+        if path.is_file() and module not in texts:
+            texts[module] = path.read_text()
+        if module not in texts or (function and f"def {function}(" not in texts[module]):
             raise pytest.UsageError(f"tests/conftest.py SLOW: {entry!r} names no test (renamed "
                                     "or removed? keep the slow tier true)")
 

@@ -97,8 +97,7 @@ def build_datasheet(m: Measurement, s: Scenario) -> Datasheet:
     i_sat = ev.saturation_index(t)
     gain, gain_se = ev.system_gain(t, i_sat)
     resp, resp_se = ev.responsivity(t, i_sat)
-    qe = resp / gain
-    rel_qe = float(np.hypot(resp_se / resp, gain_se / gain))
+    qe, rel_qe = _qe(gain, gain_se, resp, resp_se)
     var0 = ev.dark_variance(t)
     sigma_y, sigma_d = ev.temporal_dark_noise(var0, gain, gain_se)
     f: dict[str, Figure] = {
@@ -109,7 +108,7 @@ def build_datasheet(m: Measurement, s: Scenario) -> Datasheet:
         "temporal_dark_noise": sigma_d,
         "temporal_dark_noise_dn": sigma_y,
     }
-    f.update(_saturation_figures(m, i_sat, qe, rel_qe, sigma_y, gain, gain_se, resp, resp_se))
+    f.update(_saturation_figures(m, i_sat, sigma_y, gain, gain_se, resp, resp_se))
     f["dark_current"], f["dark_current_from_variance"] = ev.dark_current(t, gain, gain_se)
     f["doubling_temperature"] = ev.doubling_temperature(m.temperature, gain)
     f.update(ev.nonuniformity(m.spatial, gain, gain_se))
@@ -132,10 +131,16 @@ def build_datasheet(m: Measurement, s: Scenario) -> Datasheet:
         curves=_curves(m, qe, sigma_d, gain, lin), measurement=m)
 
 
-def _saturation_figures(m: Measurement, i_sat: int, qe: float, rel_qe: float, sigma_y: Figure,
-                        gain: float, gain_se: float, resp: float, resp_se: float
-                        ) -> dict[str, Figure]:
-    """μ_p.sat, μ_e.sat, SNR_max, μ_p.min, μ_e.min and DR, with errors and grid resolution."""
+def _qe(gain: float, gain_se: float, resp: float, resp_se: float) -> tuple[float, float]:
+    """η = R/K and its relative standard error."""
+    return resp / gain, float(np.hypot(resp_se / resp, gain_se / gain))
+
+
+def _saturation_figures(m: Measurement, i_sat: int, sigma_y: Figure, gain: float,
+                        gain_se: float, resp: float, resp_se: float) -> dict[str, Figure]:
+    """μ_p.sat, μ_e.sat, SNR_max, μ_p.min, μ_e.min and DR, with errors and grid resolution, from
+    the system gain K and the responsivity R (η = R/K) with their standard errors."""
+    qe, rel_qe = _qe(gain, gain_se, resp, resp_se)
     t, area = m.temporal, m.camera.pixel_area_um2
     step = float(t.mu_p[1] - t.mu_p[0])
     p_sat = float(t.mu_p[i_sat])

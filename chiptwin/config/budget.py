@@ -320,8 +320,8 @@ def _kernel_radius(s: Scenario) -> int:
 
 @dataclass(frozen=True)
 class Quadrature:
-    """How :mod:`chiptwin.pixel.expected_adc` takes a scene's converter-as-built moments by
-    The quadrature: ``nodes`` a pixel-frame and pass, the white rms ``u`` (LSB) whose ±10 ``u``
+    """How :mod:`chiptwin.pixel.expected_adc` takes a scene's converter-as-built moments by its
+    quadrature: ``nodes`` a pixel-frame and pass, the white rms ``u`` (LSB) whose ±10 ``u``
     window of codes each node sums, ``table`` (a transition table: always the window; else from
     ``END_CLOSED_FROM_LSB`` of ``u`` the ends' closed form instead)."""
 

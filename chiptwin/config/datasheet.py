@@ -262,10 +262,14 @@ def _read_noise(doc: _Doc, s: Scenario, cap_fF: float, gain: float) -> float:
         return (gain * gain * (2.0 * sr * sr / m + 2.0 * ktc2)
                 + 2.0 * quantization_var_of_mean(m, gain * sr) - target)
 
+    # the rounding term changes only below ≈ 1 LSB of read noise: finely there (a root pair
+    # can sit within it), coarsely above, where the excess only grows
     top = math.sqrt(target * m / 2.0) / gain * 1.01 + 1e-9  # excess(top) > 0
-    grid = [top * i / 4000 for i in range(4001)]
+    fine = min(top, 1.5 / gain)
+    grid = [fine * i / 300 for i in range(301)] + [fine + (top - fine) * i / 20
+                                                     for i in range(1, 21)]
     values = [excess(x) for x in grid]
-    below = [i for i in range(4000) if values[i] <= 0.0 < values[i + 1]]
+    below = [i for i in range(len(grid) - 1) if values[i] <= 0.0 < values[i + 1]]
     if not below:
         doc.fail("parameters.temporal_dark_noise.value", sigma_d,
                  f"is below what the scenario's chip can read: no read noise gives σ_y.dark = "

@@ -93,9 +93,9 @@ def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
     answers = [a["point"] for a in summary["answer"] if a.get("point")]
     # the band is each point's interval at the level it was decided at: the study's for a grid,
     # the per-look level for a bisection (Bonferroni over its looks)
-    levels = {p["confidence"] for p in points if p.get("confidence") is not None}
-    band = (f"{levels.pop():.4g}" if len(levels) == 1 else "per-point") if levels else \
-        f"{summary['confidence']:.4g}"
+    levels = ({p["confidence"] for p in points if p.get("confidence") is not None}
+              or {summary["confidence"]})
+    band = f"{levels.pop():.4g}" if len(levels) == 1 else "per-point"
     plots = []
     for axis in budget:
         for name in names:

@@ -52,15 +52,19 @@ CHIPS = {
 }
 
 
-def chip_scenario(name: str):
-    """The Scenario of one of the three chips."""
+def chip_scenario(name: str, **adc):
+    """The Scenario of one of the three chips; ``adc``: ``[chip.adc]`` keys set besides (a
+    converter as built), with the chip's fixed pattern pinned (seed 5) for those."""
     bundled = {"reference": "pyro_1fmol", "dark": "snr10_requirement"}
-    if name in bundled:
+    if name in bundled and not adc:
         path = SCENARIOS / f"{bundled[name]}.toml"
         return scenario_from_dict(read_toml(path), str(path))
     raw = copy.deepcopy(FLUX)
     raw["scenario"]["name"] = name
     raw["chip"] = copy.deepcopy(CHIPS[name])
+    if adc:
+        raw["chip"]["adc"].update(adc)
+        raw["chip"]["fixed_pattern_seed"] = 5
     return scenario_from_dict(raw, f"<{name}>")
 
 

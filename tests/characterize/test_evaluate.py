@@ -220,11 +220,9 @@ def test_sensitivity_threshold_sigma_matches_its_spread():
         i = ev.saturation_index(ts)
         gain, gain_se = ev.system_gain(ts, i)
         resp, resp_se = ev.responsivity(ts, i)
-        qe = resp / gain
         sigma_y, _ = ev.temporal_dark_noise(ev.dark_variance(ts), gain, gain_se)
         m = types.SimpleNamespace(temporal=ts, camera=types.SimpleNamespace(pixel_area_um2=1.0))
-        f = _saturation_figures(m, i, qe, float(np.hypot(resp_se / resp, gain_se / gain)),
-                                sigma_y, gain, gain_se, resp, resp_se)
+        f = _saturation_figures(m, i, sigma_y, gain, gain_se, resp, resp_se)
         values.append(f["absolute_sensitivity_threshold"].value)
         stated.append(f["absolute_sensitivity_threshold"].std_error)
     ratio = np.std(values, ddof=1) / np.mean(stated)

@@ -263,22 +263,13 @@ def test_the_bench_reads_through_the_chips_converters_as_built():
     chip's converters (the bench once read through an ideal ADC: σ_y.dark 2.87 DN where the chip
     has 3.91, PRNU 1.05 % for 3.54 %), and its dark frames carry the comparator's 2 LSB:
     the pair's variance exceeds the ideal ADC's by 2·2²/M ± 25 % (M samples a side)."""
-    import copy
-
     from chiptwin import pixel
     from chiptwin.characterize.bench import Bench
-    from chiptwin.config.load import scenario_from_dict
-    from tests.characterize.conftest import CHIPS, FLUX
+    from tests.characterize.conftest import chip_scenario
 
-    def chip(**adc):
-        raw = copy.deepcopy(FLUX)
-        raw["chip"] = copy.deepcopy(CHIPS["adc10"])
-        raw["chip"]["adc"].update(adc)
-        raw["chip"]["fixed_pattern_seed"] = 5
-        return scenario_from_dict(raw, "<adc10>")
-
-    built = Bench(chip(comparator_noise_lsb=2.0, gain_sigma=0.03, inl_max_lsb=8.0))
-    ideal = Bench(chip())
+    built = Bench(chip_scenario("adc10", comparator_noise_lsb=2.0, gain_sigma=0.03,
+                                inl_max_lsb=8.0))
+    ideal = Bench(chip_scenario("adc10", comparator_noise_lsb=0.0))
     s = built.sensor
     assert not s.converter.ideal
     dark = built.expected_e(s, 0.0, 0.02, 1)

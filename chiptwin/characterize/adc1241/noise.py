@@ -48,6 +48,18 @@ def _upper_fraction(codes: NDArray[np.int64], ks: NDArray[np.int64]) -> NDArray[
     return (ge[:, ks - lo] / codes.shape[1]).T
 
 
+def _probit_terms(a, b, xc, r: int):
+    """Per row at ``Φ(a + b·xc)``: η, the CDF and density, the Fisher information's weight
+    ``r·φ²/(Φ(1 − Φ))`` and its moments in xc, ``(s0, s1, s2, det)`` (the fit's and its
+    covariance's, :func:`_rms_sigma`)."""
+    eta = np.clip(a[:, None] + b[:, None] * xc, -8.0, 8.0)
+    cdf = np.clip(ndtr(eta), 1e-15, 1 - 1e-15)
+    pdf = np.exp(-0.5 * eta**2) / np.sqrt(2.0 * np.pi)
+    w = r * pdf**2 / (cdf * (1.0 - cdf))
+    s0, s1, s2 = w.sum(1), (w * xc).sum(1), (w * xc * xc).sum(1)
+    return eta, cdf, pdf, w, (s0, s1, s2, s0 * s2 - s1**2)
+
+
 def _probit_fit(x: NDArray[np.float64], y: NDArray[np.float64], r: int, iters: int = 60):
     """Binomial maximum likelihood of y ≈ Φ(a + b·x) per row (Fisher scoring), with the inverse
     Fisher information's var(b). Start from the moments of the step in y.
@@ -65,14 +77,9 @@ def _probit_fit(x: NDArray[np.float64], y: NDArray[np.float64], r: int, iters: i
     a, b = np.zeros(mu.size), 1.0 / sd
     with np.errstate(divide="ignore", invalid="ignore"):
         for _ in range(iters):
-            eta = np.clip(a[:, None] + b[:, None] * xc, -8.0, 8.0)
-            cdf = np.clip(ndtr(eta), 1e-15, 1 - 1e-15)
-            pdf = np.exp(-0.5 * eta**2) / np.sqrt(2.0 * np.pi)
-            w = r * pdf**2 / (cdf * (1.0 - cdf))
+            eta, cdf, pdf, w, (s0, s1, s2, det) = _probit_terms(a, b, xc, r)
             z = eta + (y - cdf) / np.maximum(pdf, 1e-300)
-            s0, s1, s2 = w.sum(1), (w * xc).sum(1), (w * xc * xc).sum(1)
             t0, t1 = (w * z).sum(1), (w * xc * z).sum(1)
-            det = s0 * s2 - s1**2
             a_new, b_new = (s2 * t0 - s1 * t1) / det, (s0 * t1 - s1 * t0) / det
             step = np.maximum(np.abs(a_new - a), np.abs(b_new - b) / np.abs(b_new))
             a, b = a_new, b_new
@@ -143,13 +150,8 @@ def _rms_sigma(x: NDArray[np.float64], a: NDArray[np.float64], b: NDArray[np.flo
     :func:`transition_noise`). Each fit in x centred on its own transition (a + b·μ = 0)."""
     mu = -a / b
     xc = x[None, :] - mu[:, None]
-    eta = np.clip(b[:, None] * xc, -8.0, 8.0)
-    p = np.clip(ndtr(eta), 1e-15, 1 - 1e-15)
-    pdf = np.exp(-0.5 * eta**2) / np.sqrt(2.0 * np.pi)
+    _, p, pdf, _, (s0, s1, _, det) = _probit_terms(np.zeros(b.size), b, xc, r)
     c = pdf / (p * (1.0 - p))  # the score's weight on (y − p)
-    w = r * pdf * c  # Fisher information's weight
-    s0, s1, s2 = w.sum(1), (w * xc).sum(1), (w * xc * xc).sum(1)
-    det = s0 * s2 - s1**2
     h = c * ((-s1 / det)[:, None] + (s0 / det)[:, None] * xc)  # e₂ᵀ I⁻¹ (1, x) · weight
     cov_b = np.empty((b.size, b.size))
     for k in range(b.size):
