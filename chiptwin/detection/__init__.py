@@ -2,8 +2,9 @@
 
 * :mod:`.statistics`: SNR as a power ratio (paper eq. 22) and as an amplitude ratio, window
   sums with the coherent noise of a shared dark reference, the signal a target SNR needs.
-* :mod:`.stats`: exact binomial (Clopper–Pearson), t and delta-method intervals for rates and
-  means over replicates, and decisions against a requirement (studies, the ladder).
+* :mod:`.stats`: binomial (Clopper–Pearson at Korn–Graubard's effective n, runs as clusters),
+  t and delta-method intervals for rates and means over replicates, and decisions against a
+  requirement (studies, the ladder).
 """
 
 from chiptwin.detection.statistics import SNR_DEFINITION, required_signal_e, snr, window_sums

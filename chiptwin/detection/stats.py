@@ -1,8 +1,11 @@
 """Intervals and decisions for study metrics.
 
-- Rates: exact Clopper–Pearson intervals (Clopper & Pearson, Biometrika 26, 1934): the bounds are
-  Beta quantiles, so they hold at the stated level for every n, including k = 0 (upper bound
-  ``1 − (1 − c)^(1/n) ≈ 3/n`` at c = 95 %, the "rule of three") and k = n.
+- Rates: Clopper–Pearson intervals (Clopper & Pearson, Biometrika 26, 1934) at the effective
+  number of trials of Korn & Graubard (Survey Methodology 24, 1998), with the runs as clusters.
+  The Beta-quantile bounds hold at the stated level for every n, including k = 0 (upper bound
+  ``1 − (1 − c)^(1/n) ≈ 3/n`` at c = 95 %, the "rule of three") and k = n; the effective n
+  counts that trials within a run are not independent (a read's base errors clump, sites share
+  a chip when it varies between runs): see :func:`rate_estimate`.
 - Means: Student-t intervals over replicates (normal-theory; the per-run metrics are sums or
   extremes of thousands of frame values, and n ≥ 2 is required for an interval).
 - SNR loss: the delta method on ``ln`` of the two means (independent samples).
@@ -41,6 +44,7 @@ class Estimate:
     method: str
     k: int | None = None  # rates: successes and trials
     trials: int | None = None
+    design_effect: float | None = None  # rates: Var(p̂) over its binomial value, ≥ 1 as used
 
     def as_dict(self) -> dict:
         return {k: _json_float(v) for k, v in asdict(self).items() if v is not None}
@@ -67,11 +71,59 @@ def clopper_pearson(k: int, n: int, confidence: float, sided: str = "two") -> tu
     return lo, hi
 
 
-def rate_estimate(k: int, n: int, runs: int, confidence: float) -> Estimate:
-    """A pooled rate: ``k`` of ``n`` trials over ``runs`` replicates."""
-    lo, hi = clopper_pearson(k, n, confidence)
-    lower, upper = clopper_pearson(k, n, confidence, sided="one")
-    return Estimate(k / n, lo, hi, lower, upper, runs, "Clopper-Pearson exact", k, n)
+def rate_estimate(k: np.ndarray, n: np.ndarray, confidence: float) -> Estimate:
+    """A rate pooled over runs: ``k[i]`` successes of ``n[i]`` trials in run ``i``.
+
+    The runs are independent (own seeds); the trials within a run need not be: a pyrosequencing
+    read that goes wrong at a homopolymer carries several base errors, and with
+    ``vary_chip = true`` a run's sites share one chip. A plain Clopper–Pearson interval on the
+    pooled ``Σk/Σn`` then covers far less than it says (Monte Carlo in ``tests/study/
+    test_stats.py``: 68 % for a nominal 95 % at a design effect of 4.5). So the runs are the
+    clusters (Korn & Graubard, "Confidence intervals for proportions with small expected number
+    of positive counts estimated from survey data", Survey Methodology 24:193, 1998):
+
+    - ``p̂ = Σk/Σn``, its variance from the runs' residuals ``k_i − p̂ n_i`` (the ratio
+      estimator's linearisation, ``Σ(k_i − p̂ n_i)² / (N (N − 1) n̄²)`` over N runs);
+    - the design effect ``d = Var(p̂) / (p̂(1 − p̂)/Σn)``, taken as 1 when below it (the trials are
+      no better than independent);
+    - the effective trials ``n* = Σn/d · (t_{Σn−1} / t_{N−1})²`` (the second factor: the
+      variance is known from N runs, not Σn trials), at most Σn; the bounds are the
+      Clopper–Pearson Beta quantiles at ``k* = p̂ n*`` of ``n*``.
+
+    At ``k = 0`` or ``k = Σn`` there is no variance to measure: ``n* = Σn`` (Korn & Graubard's
+    rule), the plain Clopper–Pearson bound, which assumes the errors do not clump (none was seen
+    to): a study that must bound clumping errors it never sees needs more reads by the clump's
+    size. One run (N = 1) likewise: the plain interval, conditional on that run.
+    """
+    k, n = np.asarray(k, dtype=float), np.asarray(n, dtype=float)
+    runs, kk, nn = len(k), float(k.sum()), float(n.sum())
+    if runs < 1 or nn < 1 or np.any(k < 0) or np.any(k > n):
+        raise ValueError(f"rate_estimate: need runs with 0 ≤ k ≤ n and Σn ≥ 1; got k = "
+                         f"{k.tolist()}, n = {n.tolist()}")
+    p = kk / nn
+    if runs < 2:
+        lo, hi = clopper_pearson(int(kk), int(nn), confidence)
+        lower, upper = clopper_pearson(int(kk), int(nn), confidence, sided="one")
+        return Estimate(p, lo, hi, lower, upper, runs, "Clopper-Pearson exact (one run)",
+                        int(kk), int(nn), 1.0)
+    deff, df_factor = 1.0, None
+    if 0 < kk < nn:
+        var = float(np.sum((k - p * n) ** 2)) / (runs * (runs - 1) * (nn / runs) ** 2)
+        deff = max(var / (p * (1 - p) / nn), 1.0)
+        df_factor = _stats().t.ppf
+    alpha = 1.0 - confidence
+    bounds = []
+    for tail in (alpha / 2, alpha):  # two-sided, then one-sided
+        n_eff = nn / deff
+        if df_factor is not None:
+            n_eff *= (df_factor(1 - tail, nn - 1) / df_factor(1 - tail, runs - 1)) ** 2
+        n_eff = min(n_eff, nn)
+        k_eff = p * n_eff
+        lo = 0.0 if kk == 0 else float(_stats().beta.ppf(tail, k_eff, n_eff - k_eff + 1))
+        hi = 1.0 if kk == nn else float(_stats().beta.ppf(1 - tail, k_eff + 1, n_eff - k_eff))
+        bounds += [lo, hi]
+    return Estimate(p, *bounds, runs, "Korn-Graubard (Clopper-Pearson at the effective n, runs "
+                    "as clusters)", int(kk), int(nn), deff)
 
 
 def mean_estimate(x: np.ndarray, confidence: float) -> Estimate:

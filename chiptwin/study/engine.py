@@ -223,9 +223,8 @@ def point_estimates(plan: Plan, rows: list[dict], ref_rows: list[dict], confiden
     for name in (*plan.study.metrics, *[m for m in plan.metrics if m not in plan.study.metrics]):
         kind = CATALOGUE[name].kind
         if kind == "rate":
-            k = sum(m[name][0] for m in ok)
-            n = sum(m[name][1] for m in ok)
-            out[name] = rate_estimate(k, n, len(ok), confidence)
+            k, n = np.array([m[name] for m in ok]).T
+            out[name] = rate_estimate(k, n, confidence)
         elif kind == "mean":
             out[name] = mean_estimate(np.array([m[name] for m in ok]), confidence)
         else:
@@ -299,7 +298,8 @@ def summarise(plan: Plan, table: list[dict], searched: dict[str, dict]) -> dict[
         "monotonicity": {"assumption": "along each budget axis, cheapest first, a point that "
                          "meets the requirement is followed only by points that meet it",
                          "violations": violations},
-        "statistics": {"rates": "Clopper-Pearson exact, pooled trials over replicates",
+        "statistics": {"rates": "Clopper-Pearson at Korn-Graubard's effective n: trials pooled "
+                                 "over replicates, the replicates as clusters",
                        "means": "Student t over replicates",
                        "snr_loss_db": "delta method on ln of mean power SNR, t quantile",
                        "requirement": "met when the one-sided bound at `confidence` is on the "

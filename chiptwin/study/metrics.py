@@ -5,10 +5,11 @@ arrays. Two kinds:
 
 - ``rate``: a count of successes ``k`` out of ``n`` trials in the run (``calls_correct``: reads
   equal to the template out of the sites' reads; ``base_error_rate``: base errors out of the
-  template's bases over every site). Pooled over replicates they carry exact Clopper–Pearson
-  intervals. Trials within a run are the chip's sites: independent reads given the chip (own
-  pixel, own temporal noise); with ``vary_chip = false`` every interval is conditional on that
-  one chip.
+  template's bases over every site). Pooled over replicates they carry Clopper–Pearson
+  intervals at Korn & Graubard's effective number of trials, the runs as clusters
+  (:func:`chiptwin.detection.stats.rate_estimate`): a read's base errors clump, and with
+  ``vary_chip = true`` a run's sites share a chip. With ``vary_chip = false`` every interval is
+  conditional on that one chip.
 - ``mean``: a number per run (``snr_power``, ``memory_peak_frames``, …), summarised by its mean
   with a Student-t interval over replicates.
 

@@ -234,8 +234,9 @@ def study_markdown() -> str:
     out += [f"| `{k}` | {_cell(v)} |" for k, v in AXIS_KEYS.items()]
     out += ["", "## Metrics\n",
             "`[[study.metric]] name = ...` takes one of these. Rates are pooled over "
-            "replicates with exact Clopper–Pearson intervals (a rate of 0 in n reports its "
-            "bound, ≈ 3/n at 95 %); means carry Student-t intervals; `snr_loss_db` is derived "
+            "replicates with Clopper–Pearson intervals at Korn & Graubard's effective "
+            "number of trials, the replicates as clusters (a read's base errors clump); a "
+            "rate of 0 in n reports its bound, ≈ 3/n at 95 %; means carry Student-t intervals; `snr_loss_db` is derived "
             "against the `reference` point with a delta-method interval.\n",
             "| metric | kind | unit | meaning | needs |", "|---|---|---|---|---|"]
     for m in CATALOGUE.values():

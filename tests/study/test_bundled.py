@@ -108,9 +108,9 @@ def test_lod_bisection_answer_at_reduced_replicates():
     The bundled chip with 20 sites instead of 2 (its two among them, the rest two pixels apart):
     each run reads 20 templates, so 2 runs a look and a cap of 4 runs give the reads of the
     README's 2 sites × 20 runs and 2 × 40 runs; the rates pool reads (Clopper-Pearson on k of n
-    reads, reads independent given the chip), so every look has the same n, the same per-look
-    confidence (1 − 0.05/2) and the same pass rule (40/40 reads: lower bound 0.912 ≥ 0.9) as
-    there, for a quarter of the runs."""
+    reads, plain at k = n: no design effect to measure), so every look has the same n, the same
+    per-look confidence (1 − 0.05/2) and the same pass rule (40/40 reads: lower bound 0.912 ≥
+    0.9) as there, for a quarter of the runs."""
     sites = [[4, 8], [2, 3]] + [[r, c] for r in (0, 2, 4, 6) for c in (1, 3, 8, 10, 13)
                                 if [r, c] not in ([4, 8], [2, 3])]
 
