@@ -137,11 +137,13 @@ def _fir_rows(x: np.ndarray, cols: int, apply) -> np.ndarray:
     return np.ascontiguousarray(out).reshape(*lead, -1)
 
 
-def spatial_float(plan: SpatialPlan, x: np.ndarray, upto: str | None = None) -> np.ndarray:
+def spatial_float(plan: SpatialPlan, x: np.ndarray, upto: str | None = None,
+                  after: str | None = None) -> np.ndarray:
     """The float reference of the spatial stages on frames ``x`` (…, n_pixels); ``upto`` stops
-    before that stage."""
+    before that stage, ``after`` starts after that one (``x`` is then that stage's output)."""
     f = plan.formats
-    for stage in plan.stages:
+    stages = plan.stages[plan.stages.index(after) + 1:] if after else plan.stages
+    for stage in stages:
         if stage == upto:
             break
         if stage == "bin_rows":
@@ -154,10 +156,11 @@ def spatial_float(plan: SpatialPlan, x: np.ndarray, upto: str | None = None) -> 
     return x
 
 
-def spatial_matrix(plan: SpatialPlan, upto: str | None = None) -> np.ndarray:
-    """``L`` (n_out × n_pixels) of the float spatial stages (before ``upto``)."""
-    n = plan.rows * plan.cols
-    return spatial_float(plan, np.eye(n), upto).T
+def spatial_matrix(plan: SpatialPlan, upto: str | None = None,
+                   after: str | None = None) -> np.ndarray:
+    """``L`` (n_out × n_in) of the float spatial stages (before ``upto``, after ``after``)."""
+    n = plan.n_grid if after else plan.rows * plan.cols
+    return spatial_float(plan, np.eye(n), upto, after).T
 
 
 class ProgramPipeline:
@@ -368,16 +371,40 @@ class ProgramPipeline:
         return res
 
     def _bound(self, stage: str, case: Case) -> None:
-        """With report_error: the stage's error against its analytic bound on this input."""
+        """With report_error: the stage's error against its analytic bound on this input, and
+        that bound carried to the program's output (``bound_at_output``, the detection's units:
+        :meth:`error_gain`)."""
         if self.error is None:
             return
         r = compare(case)
         b = self.stage_bounds.setdefault(stage, {"max_abs_err_lsb": 0.0, "bound_lsb": 0.0,
-                                                 "bound_ok": True, "outputs": 0})
+                                                 "bound_ok": True, "outputs": 0,
+                                                 "gain_to_output": self.error_gain(stage),
+                                                 "bound_at_output": 0.0})
         b["max_abs_err_lsb"] = max(b["max_abs_err_lsb"], r["max_abs_err_in_range_lsb"])
         b["bound_lsb"] = max(b["bound_lsb"], r["bound_lsb"])
+        b["bound_at_output"] = b["bound_lsb"] * case.cfg.out_fmt.lsb * b["gain_to_output"]
         b["bound_ok"] = bool(b["bound_ok"] and r["bound_ok"] is not False)
         b["outputs"] += r["n_outputs"]
+
+    def error_gain(self, stage: str) -> float:
+        """How far an error of at most 1 in each output of ``stage`` (its values' units;
+        ``"front"``: the chain's average, in ADC LSB) can move an output of the program, in the
+        units the detection reads: the float stages after it are linear, so their largest
+        absolute row sum (ℓ∞ gain: the kinetics' ``Σ|c_j|``, the spatial stages' ``L``), times
+        the window scale. The stages' local errors add at the output through these gains
+        (fixed − float telescopes stage by stage), which is the bound ``fidelity.auto`` uses."""
+        gain = self.kin.scale if self.kin is not None else 1.0
+        if stage == "front" and self.kin is not None:
+            gain *= float(np.abs(self.kin.coefficients).sum())
+        if self.spatial is not None:
+            if stage in ("front", "kinetics"):
+                matrix = self._matrix
+            else:
+                matrix = spatial_matrix(self.spatial, after=stage)
+            if matrix.size:
+                gain *= float(np.abs(matrix).sum(axis=1).max())
+        return gain
 
     def _expand(self, x: np.ndarray) -> np.ndarray:
         """A grid value at every pixel: pixel ``p`` reads the cell it lies in."""

@@ -145,11 +145,12 @@ class Calibrations(CachedEstimates):
         how = ("M, K, N powers of two: the fixed chain is exact" if lsb == 0 else
                f"the chain's rounding, at most {lsb:.3g} LSB per output")
         if not is_default(d.program):
-            later = self._program_bound_lsb()
-            lsb += later
+            front_gain, later = self._program_bound_lsb()
+            lsb = lsb * front_gain + later
             further = [st for st in d.program if st not in DEFAULT_PROGRAM]
-            how += (f"; the program's further stages ({', '.join(further)}) at most "
-                    f"{later:.3g} LSB (their analytic bounds on this scene's data, calibrated)")
+            how += (f", × {front_gain:.3g} through the program; its further stages "
+                    f"({', '.join(further)}) at most {later:.3g} LSB at its output (their "
+                    "analytic bounds on this scene's data, through the stages after each)")
         base = self._expected(self._expected_levels())
         e_per_lsb = base.e_per_lsb
         signal = min(abs(st["signal_e"]) for st in base.summary["sites"]) or math.inf
@@ -157,15 +158,21 @@ class Calibrations(CachedEstimates):
                   "flow_value_abs": 2 * lsb * e_per_lsb / signal}
         return Estimate(_with_snr(errors), how)
 
-    def _program_bound_lsb(self) -> float:
-        """The sum of the analytic bounds of the program's stages after the chain (kinetics,
-        bin_rows, fir8, wiener: coefficient quantisation and rounding, which depend on the
-        data), from one fixed-point run of the scene with ``report_error``. The chain's
-        own bound is not in it (that is :func:`_rounding_bound_lsb`)."""
+    def _program_bound_lsb(self) -> tuple[float, float]:
+        """The chain's error gain to the program's output, and the sum of the analytic bounds of
+        the program's stages after the chain (kinetics, bin_rows, fir8, wiener: coefficient
+        quantisation and rounding, which depend on the data) carried to its output, in the
+        units the detection reads (ADC LSB of a window total: :meth:`chiptwin.dsp.
+        program_pipeline.ProgramPipeline.error_gain`), from one fixed-point run of the scene
+        with ``report_error``. Each stage's bound is in its own output LSB and passes through
+        the stages after it: a sum in LSB of different formats (as once here) understates a
+        Wiener equalizer's amplified error and overstates a kinetics stage's fine LSB."""
         sv = with_levels(self.s, {**self.ref, "photons": "binned", "dsp": "fixed"})
         sv = replace(sv, chip=replace(sv.chip, dsp=replace(sv.chip.dsp, report_error=True)))
-        bounds = runner.run(sv).summary["dsp_program"].get("stage_error_bounds", {})
-        return float(sum(b["bound_lsb"] for b in bounds.values()))
+        fig = runner.run(sv).summary["dsp_program"]
+        bounds = fig.get("stage_error_bounds", {})
+        return (float(fig.get("front_error_gain", 1.0)),
+                float(sum(b["bound_at_output"] for b in bounds.values())))
 
     # -- the scene at the expected level -----------------------------------------------------
 

@@ -181,6 +181,7 @@ def program_figures(s: Scenario, scene: Scene, out: ChainOutput, summary: dict[s
     if isinstance(dsp, ProgramPipeline):
         if dsp.stage_bounds:
             fig["stage_error_bounds"] = dsp.stage_bounds
+            fig["front_error_gain"] = dsp.error_gain("front")
         if dsp.kin is not None:
             fig["kinetics"] = {"window_frames": len(dsp.kin.cfg.t_s),
                                "k_per_s": dsp.kin.cfg.k_per_s,
