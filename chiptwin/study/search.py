@@ -62,7 +62,11 @@ def bisect(n: int, decide: Callable[[int], str], verify: int = 1) -> dict[str, A
             break
         checks -= 1
         probe = min(unvisited, key=lambda i: abs(i - (hi + top) // 2))  # halfway to the top
-        if not ok(probe):  # a violation: the answer cannot be at or below it
+        ok(probe)
+        # a failing probe is a violation: the answer cannot be at or below it. An undecided one
+        # is none (its interval allows a pass; the summary's answer rule, which counts only a
+        # decided failure above a pass against it, keeps the answer where it is)
+        if visited[probe] == "fail":
             lo = probe
             hi = min(i for i, d in visited.items() if i > probe and d == "pass")
     return {"answer": hi, "visited": visited, "violations": violations(visited)}

@@ -43,6 +43,19 @@ def test_planted_non_monotone_point_is_reported_and_skipped():
     assert found["visited"][9] == "fail"
 
 
+def test_an_undecided_probe_above_the_answer_is_no_violation():
+    """Threshold 4; the verification probe lands on 9, undecided at the cap: its interval
+    allows a pass, so the answer stays 4, as the study's answer rule (engine._answer: only a
+    decided failure above a pass disqualifies it) reports it. The search once moved to 10 and
+    the summary said 4."""
+    def decide(i):
+        return "undecided" if i == 9 else ("pass" if i >= 4 else "fail")
+
+    found = bisect(16, decide, verify=1)
+    assert found["visited"][9] == "undecided"
+    assert found["answer"] == 4 and found["violations"] == []
+
+
 def test_violations_and_cheapest_on_a_grid():
     assert violations({0: "fail", 1: "pass", 2: "fail", 3: "pass"}) == [
         {"pass_at": 1, "fail_at": 2}]
