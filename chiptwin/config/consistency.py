@@ -213,6 +213,20 @@ def _optics(s: Scenario) -> None:
     _optics_law(s)
     _optics_layers(s)
     _optics_stack_levels(s)
+    _optics_band(s)
+
+
+def _optics_band(s: Scenario) -> None:
+    """The emission band thin films are averaged over (:class:`chiptwin.optics.layers.Band`:
+    its ±4σ nodes stay above 100 nm)."""
+    from chiptwin.optics.layers import Band
+
+    o = s.optics
+    try:
+        Band(o.wavelength_nm, o.band_fwhm_nm)
+    except ValueError as e:
+        _fail(s, "optics.band_fwhm_nm", o.band_fwhm_nm,
+              f"with optics.wavelength_nm = {o.wavelength_nm:g}: {e}")
 
 
 def _optics_law(s: Scenario) -> None:

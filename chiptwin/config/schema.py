@@ -210,8 +210,20 @@ class Optics:
             "faceplate's) sum to sites.height_um, or the first leaves it out and fills it")
     wavelength_nm: float = param(
         562.0, lo=200.0, hi=1200.0,
-        doc="nm; turns a layer's k into alpha_per_um = 4πk/λ; the paper's 562 nm peak; 200 … "
-            "1200 nm, silicon's band")
+        doc="nm; the emission's peak: turns a layer's k into alpha_per_um = 4πk/λ and centres "
+            "the band thin films are averaged over; the paper's 562 nm; 200 … 1200 nm, "
+            "silicon's band")
+    band_fwhm_nm: float = param(
+        70.0, lo=1.0, hi=300.0,
+        doc="nm; the emission band's full width at half maximum (Gaussian), over which thin "
+            "films' interference is averaged; 70 nm assumed for firefly luciferase (not in "
+            "REFERENCE); 1 nm (a line) … 300 nm")
+    thin_film_um: float = param(
+        2.0, lo=0.0, hi=10.0,
+        doc="µm; inner layers this thin or thinner are thin films: their multiple reflections "
+            "add as amplitudes over the band (transfer matrices) at the psf and raytrace "
+            "levels, in place (they move light ≤ d·tanθ sideways); 0 = every layer a ray "
+            "layer; ≤ 10 µm, beyond which a round trip moves light ≥ 20 µm")
     silicon_n: float = param(
         0.0, lo=0.0, hi=INDEX_MAX,
         doc="0 = the diode plane absorbs what reaches it (the pixel's qe is then external, "

@@ -21,7 +21,7 @@ from chiptwin.optics.collection import (
     plane_fraction,
 )
 from chiptwin.optics.faceplate import Faceplate
-from chiptwin.optics.layers import Layer, Stack
+from chiptwin.optics.layers import Band, Layer, Stack
 from chiptwin.optics.psf import (
     APERTURES,
     coupling_na2,
@@ -39,6 +39,7 @@ from chiptwin.optics.stack_psf import (
 
 __all__ = [
     "APERTURES",
+    "Band",
     "CONVENTIONS",
     "EMITTERS",
     "Faceplate",

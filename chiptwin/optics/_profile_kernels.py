@@ -19,7 +19,6 @@ import numpy as np
 
 from chiptwin._numba import NJIT
 
-
 #: Steps of the guide per table node.
 GUIDE_PER_NODE = 4
 

@@ -86,10 +86,31 @@ def _wall_distance(x, y, dx, dy, x_lo, x_hi, y_lo, y_hi) -> tuple[float, int]:
 
 
 @NJIT
+def _film_rt(tab, f, direction, pol, lam, beta, beta_max) -> tuple[float, float]:
+    """Band node ``lam``'s reflectance and transmittance of film group ``f`` met in
+    ``direction`` (0 down, 1 up) at Snell's invariant ``beta``: linear in β on the table's
+    uniform grid over ``[0, beta_max]``; :data:`POL_AVERAGE` the mean of s and p."""
+    nb = tab.shape[5]
+    x = min(beta / beta_max, 1.0) * (nb - 1)
+    j = min(int(x), nb - 2)
+    w = x - j
+    r = t = 0.0
+    for p in range(2):
+        if pol == POL_AVERAGE or pol == p:
+            share = 0.5 if pol == POL_AVERAGE else 1.0
+            r += share * ((1.0 - w) * tab[f, direction, p, 0, lam, j]
+                          + w * tab[f, direction, p, 0, lam, j + 1])
+            t += share * ((1.0 - w) * tab[f, direction, p, 1, lam, j]
+                          + w * tab[f, direction, p, 1, lam, j + 1])
+    return r, t
+
+
+@NJIT
 def trace_chunk(
     gen, out, site_x, site_y, foot_shape, foot_size, emitter, pol_mode,
     n_layer, z_bottom, z_top, alpha, n_si, walls, well_half,
     n_rows, n_cols, pitch, half_w, half_h, max_events,
+    layer_code, film_of, film_tab, film_beta_max, film_code, band_cdf, fp_layer,
     fp_na=0.0, fp_pitch=0.0, fp_open=1.0,
 ):
     """Trace ``out.size`` rays from one site; write each ray's outcome code into ``out``.
@@ -107,9 +128,20 @@ def trace_chunk(
     kept plus a uniform jitter over one fibre pitch ``fp_pitch`` (its place inside the fibre is
     lost); every other ray is absorbed in the faceplate. No draw is made without a faceplate, so
     the streams of a stack without one are unchanged.
+
+    Thin films (:meth:`chiptwin.optics.layers.Stack.ray_path`): ``n_layer`` … ``alpha`` are the
+    ray layers; ``film_of[k]`` the film group between ray layer ``k`` and the next (or the plane
+    below the last), −1 for a bare interface. A ray draws one wavelength of the band at its
+    start (``band_cdf``, only when there are films: the streams of a stack without are
+    unchanged) and keeps it, so every pass through a group sees that wavelength's coherent
+    reflectance and transmittance (``film_tab[f, direction, pol, R|T, wavelength, β]``); the
+    rest, ``1 − R − T``, is absorbed in the group (code ``LAYER + film_code[f]``). Absorption in
+    ray layer ``i`` is ``LAYER + layer_code[i]``, in the faceplate ``LAYER + fp_layer`` (the
+    stack's layer count).
     """
     n_layers = n_layer.size
     n_pix = n_rows * n_cols
+    has_films = film_tab.shape[0] > 0
     for k in range(out.size):
         # the footprint point (uniform) and the direction (the emitter's law)
         x, y = site_x, site_y
@@ -131,6 +163,9 @@ def trace_chunk(
         pol = POL_AVERAGE
         if pol_mode != POL_AVERAGE:
             pol = POL_S if gen.random() < 0.5 else POL_P
+        lam = 0
+        if has_films:
+            lam = min(np.searchsorted(band_cdf, gen.random(), side="right"), band_cdf.size - 1)
         if dz >= 0.0:
             out[k] = n_pix + TOP
             continue
@@ -151,7 +186,7 @@ def trace_chunk(
             if alpha[i] > 0.0:
                 s_free = -math.log(1.0 - gen.random()) / alpha[i]
                 if s_free < step:
-                    code = n_pix + LAYER + i
+                    code = n_pix + LAYER + layer_code[i]
                     break
             x += dx * step
             y += dy * step
@@ -174,15 +209,30 @@ def trace_chunk(
                 n2 = n_si if i == n_layers - 1 else n_layer[i + 1]
             else:
                 n2 = n_layer[i - 1]
-            refl, cos_t = fresnel(n_layer[i], n2, abs(dz), pol)
-            if gen.random() < refl:
-                dz = -dz
-                continue
+            f = film_of[i] if down else film_of[i - 1]
+            if f < 0:
+                refl, cos_t = fresnel(n_layer[i], n2, abs(dz), pol)
+                if gen.random() < refl:
+                    dz = -dz
+                    continue
+            else:
+                beta = n_layer[i] * math.sqrt(max(0.0, 1.0 - dz * dz))
+                way = 0 if down else 1
+                refl, trans = _film_rt(film_tab, f, way, pol, lam, beta, film_beta_max[f, way])
+                u = gen.random()
+                if u < refl:
+                    dz = -dz
+                    continue
+                sin_t2 = (beta / n2) ** 2
+                if u >= refl + trans or sin_t2 >= 1.0:
+                    code = n_pix + LAYER + film_code[f]
+                    break
+                cos_t = math.sqrt(1.0 - sin_t2)
             if down and i == n_layers - 1:
                 if fp_na > 0.0:
                     invariant = n_layer[i] * math.sqrt(max(0.0, 1.0 - dz * dz))
                     if invariant > fp_na or gen.random() >= fp_open:
-                        code = n_pix + LAYER + n_layers
+                        code = n_pix + LAYER + fp_layer
                         break
                     # exit − entry: a uniform place in the fibre entered, another where it
                     # leaves, each axis a triangle on ±pitch (chiptwin.optics.faceplate)

@@ -22,7 +22,12 @@ Emitters (laws of the emitted intensity in the first layer, facing down):
 
 Multiple reflections are left out on purpose (single pass, as issue 18 asks for the psf level): see
 :func:`chiptwin.optics.stack_psf.plane_fraction_stack` for the incoherent multiple-reflection
-energy, which measures what the single pass leaves out.
+energy, which measures what the single pass leaves out. Except in thin films
+(:meth:`~chiptwin.optics.layers.Stack.ray_path`: inner layers up to ``thin_film_um``, 2 µm by
+default): there the reflections add as amplitudes over the emission band, in place (transfer
+matrices, :mod:`chiptwin.optics.thinfilm`), the film moving no light sideways; ``ρ``, the
+emission measure and ``θₘ`` are then those of the ray layers alone, so a ray beyond a thin
+low-index film's critical angle arrives by tunnelling through it.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from chiptwin.optics import _profile_kernels as _kernels
+from chiptwin.optics import thinfilm
 from chiptwin.optics.layers import Layer, Stack
 from chiptwin.optics.quadrature import gauss_legendre
 
@@ -99,8 +105,11 @@ def _emission(n: NDArray, theta_m: NDArray, cos0: NDArray, law: str) -> NDArray:
     return 2.0 * ratio * sc
 
 
-def _rays(layers: tuple[Layer, ...], theta_m: NDArray, law: str):
-    """Per ray (angle θₘ in the lowest-index layer): ``ρ``, ``dP/dθₘ``, ``dρ/dθₘ``, single pass."""
+def _rays(stack: Stack, theta_m: NDArray, law: str):
+    """Per ray (angle θₘ in the lowest-index ray layer): ``ρ``, ``dP/dθₘ``, ``dρ/dθₘ``, single
+    pass; the thin films between two ray layers crossed in place, coherently
+    (:meth:`~chiptwin.optics.layers.Stack.ray_path`)."""
+    layers, films = stack.ray_path()
     n, t, alpha = _arrays(layers)
     n_m = n.min()
     beta, cos = _cosines(n, theta_m)
@@ -120,7 +129,11 @@ def _rays(layers: tuple[Layer, ...], theta_m: NDArray, law: str):
     # whenever Tₛ ≠ Tₚ (−0.7 % of the plane fraction for water | Si₃N₄ | Si; −1.6 % two pixels out)
     t_s, t_p = np.ones_like(theta_m), np.ones_like(theta_m)
     for i in range(len(n) - 1):
-        ts, tp = fresnel_polarised(n[i], n[i + 1], beta)
+        if films[i]:  # the films' multiple reflections as amplitudes, over the emission band
+            ts, tp = (a.reshape(beta.shape) for a in thinfilm.band_average(
+                (layers[i], *films[i], layers[i + 1]), beta, stack.band))
+        else:
+            ts, tp = fresnel_polarised(n[i], n[i + 1], beta)
         t_s, t_p = t_s * ts, t_p * tp
     weight = np.exp(-optical_depth) * 0.5 * (t_s + t_p)
     return rho, _emission(n, theta_m, cos[0], law) * weight, drho
@@ -168,11 +181,11 @@ class RadialProfile:
                 *_kernels.guide(self.rho_um))
 
 
-def _node_integrals(layers, edges: NDArray, law: str) -> NDArray:
+def _node_integrals(stack: Stack, edges: NDArray, law: str) -> NDArray:
     """∫ dP/dθₘ over each interval between successive ``edges`` (8-point Gauss–Legendre)."""
     lo, hi = edges[:-1, None], edges[1:, None]
     theta = 0.5 * (lo + hi) + 0.5 * (hi - lo) * _GL_X[None, :]
-    _, dp, _ = _rays(layers, theta.ravel(), law)
+    _, dp, _ = _rays(stack, theta.ravel(), law)
     return (dp.reshape(theta.shape) @ _GL_W) * 0.5 * (hi - lo)[:, 0]
 
 
@@ -200,19 +213,18 @@ def build_profile(stack: Stack, law: str, *, na: float | None = None,
         raise ValueError(f"law = {law!r} is unknown: must be one of {LAWS}")
     if not stack.height_um > 0:
         raise ValueError(f"stack height_um = {stack.height_um!r}: must be > 0")
-    layers = stack.layers
-    n, t, _ = _arrays(layers)
+    n, t, _ = _arrays(stack.ray_path()[0])
     n_m = float(n.min())
     top = math.pi / 2 if na is None or na >= n_m else math.asin(na / n_m)
     bounded = top < math.pi / 2 or not np.any(t[n == n_m] > 0)
     theta = np.linspace(0.0, top, n_nodes + 1)
     if not bounded:
         theta = theta[:-1]
-    rho, dp, drho = _rays(layers, theta, law)
+    rho, dp, drho = _rays(stack, theta, law)
     with np.errstate(invalid="ignore", divide="ignore"):
         dens = np.nan_to_num(dp / drho)
-    cum = np.concatenate([[0.0], np.cumsum(_node_integrals(layers, theta, law))])
-    tail = 0.0 if bounded else float(_node_integrals(layers, np.array([theta[-1], top]), law)[0])
+    cum = np.concatenate([[0.0], np.cumsum(_node_integrals(stack, theta, law))])
+    tail = 0.0 if bounded else float(_node_integrals(stack, np.array([theta[-1], top]), law)[0])
     keep = np.concatenate([[True], np.diff(rho) > 0])  # zero-thickness tops: drop repeated ρ
     return RadialProfile(rho[keep], cum[keep], dens[keep], float(cum[-1] + tail), bounded)
 

@@ -3,8 +3,9 @@
 Same geometry and output as :func:`chiptwin.optics.psf.coupling_psf` (pixel ``p = row·n_cols +
 col``, diodes centred in their pitch cells, ``C[p, s]`` the fraction of site ``s``'s emitted
 photons landing on pixel ``p``'s diode), with the one medium of height ``U`` replaced by a
-:class:`~chiptwin.optics.layers.Stack` (single pass: Snell, unpolarised Fresnel at every interface,
-TIR, Beer–Lambert along the oblique path; :mod:`chiptwin.optics.profile`).
+:class:`~chiptwin.optics.layers.Stack` (single pass: Snell, Fresnel per polarisation at every
+interface, thin films coherent over the emission band, TIR, Beer–Lambert along the oblique path;
+:mod:`chiptwin.optics.profile`).
 
 Emitters (:data:`EMITTERS`): ``"isotropic"`` and ``"lambertian"`` are physical laws traced through
 the stack; ``"lambertian_na2"`` is the paper's convention kept by name for reproducing its figures:
@@ -25,6 +26,8 @@ averaged over Gauss–Legendre nodes. Node counts double until two levels agree 
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -85,10 +88,10 @@ def receiving_stack(stack: Stack, *, into_silicon: bool = False,
         raise ValueError("into_silicon with a faceplate: the faceplate's exit is straight down at "
                          "the psf level; give one of the two")
     if into_silicon:
-        return Stack(stack.layers + (Layer("silicon", stack.silicon_n, 0.0),), stack.silicon_n)
+        return replace(stack, layers=stack.layers + (Layer("silicon", stack.silicon_n, 0.0),))
     if faceplate is not None and faceplate.core_n is not None:
         core = Layer("faceplate core", faceplate.core_n, 0.0)
-        return Stack(stack.layers + (core,), stack.silicon_n)
+        return replace(stack, layers=stack.layers + (core,))
     return stack
 
 
@@ -360,9 +363,10 @@ def plane_fraction_stack(stack: Stack, emitter: str, *, into_silicon: bool = Fal
     law = check_emitter(emitter)
     if law == LAMBERTIAN_NA2:
         return 1.0
-    layers = receiving_stack(stack, into_silicon=into_silicon).layers
+    receiving = receiving_stack(stack, into_silicon=into_silicon)
+    layers = receiving.layers
     if reflections == "single":
-        return build_profile(Stack(layers, stack.silicon_n), law).total
+        return build_profile(receiving, law).total
     if reflections == "coherent":
         return _coherent_fraction(layers, law, band or thinfilm.Band(), rtol)
     if reflections != "incoherent":

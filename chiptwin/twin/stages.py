@@ -215,7 +215,8 @@ def optics_stack(s: Scenario) -> optics.Stack:
             4.0 * math.pi * float(t.get("k", 0.0)) / lam_um) for i, t in enumerate(o.layers))
     else:
         layers = (optics.Layer("medium", DEFAULT_MEDIUM_N, s.sites.height_um),)
-    return optics.Stack(layers, o.silicon_n or layers[-1].n)
+    return optics.Stack(layers, o.silicon_n or layers[-1].n, thin_film_um=o.thin_film_um,
+                        band=optics.Band(o.wavelength_nm, o.band_fwhm_nm))
 
 
 def optics_faceplate(s: Scenario) -> optics.Faceplate | None:

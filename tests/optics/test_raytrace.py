@@ -16,7 +16,7 @@ from scipy import integrate
 from chiptwin.optics import _raytrace_kernels as _k
 from chiptwin.optics.layers import Layer, Stack
 from chiptwin.optics.psf import coupling_psf
-from chiptwin.optics.raytrace import rays_for_error, raytrace
+from chiptwin.optics.raytrace import _stack_arrays, rays_for_error, raytrace
 from tests.conftest import require_module
 
 SIGMAS = 4.0
@@ -96,11 +96,13 @@ def test_one_interface_matches_reference(n1, n2, published):
 @pytest.mark.parametrize("polarisation", ["random", "average"])
 def test_slab_multiple_reflections(n3, polarisation):
     """REFERENCE §2: a slab (water 1.33 | glass 1.5 | n3) transmits ½∫ T12·T23/(1 − R21·R23)
-    sinθ dθ (incoherent); n3 = 1.0 adds TIR at the bottom (light trapped, bouncing, leaving up).
+    sinθ dθ (incoherent: the 2 µm glass traced as rays, thin_film_um = 0); n3 = 1.0 adds TIR
+    at the bottom (light trapped, bouncing, leaving up).
     ``random`` against the per-polarisation sum, ``average`` against the mean-R sum: 4 SE."""
     n = 400_000
     expected = _slab(1.33, 1.5, n3, average=polarisation == "average")
-    r = _plane(Stack((Layer("water", 1.33, 1.0), Layer("glass", 1.5, 2.0)), silicon_n=n3), n,
+    r = _plane(Stack((Layer("water", 1.33, 1.0), Layer("glass", 1.5, 2.0)), thin_film_um=0.0,
+                 silicon_n=n3), n,
                polarisation=polarisation)
     _within(float(r.transmitted[0]), expected, n)
     assert r.truncated[0] == 0.0
@@ -225,7 +227,8 @@ def test_optiland_cross_check():
         width=1e6, height=1e6, num_pixels_x=1, num_pixels_y=1, splat="hard"))
     res = scene.trace(num_rays=n, seed=3, max_depth=64)
     theirs = res.total_flux_detected / res.total_flux_in
-    r = _plane(Stack((Layer("water", 1.33, 1.0), Layer("glass", 1.5, 2.0)), silicon_n=4.3), n,
+    r = _plane(Stack((Layer("water", 1.33, 1.0), Layer("glass", 1.5, 2.0)), thin_film_um=0.0,
+                 silicon_n=4.3), n,
                polarisation="average")
     ours = float(r.transmitted[0])
     se = np.sqrt(2 * ours * (1 - ours) / n)
@@ -240,7 +243,8 @@ def test_every_ray_ends_once():
     """Energy bookkeeping, ray by ray: every outcome code is one valid place, and the counts of
     pixels + silicon + top + walls + layers + truncated equal the rays emitted, exactly."""
     stack = Stack((Layer("water", 1.33, 2.0, alpha_per_um=0.01), Layer("oxide", 1.46, 3.0),
-                   Layer("nitride", 2.0, 0.0), Layer("glass", 1.5, 4.0, alpha_per_um=0.02)))
+                   Layer("nitride", 2.0, 0.0), Layer("glass", 1.5, 4.0, alpha_per_um=0.02)),
+                  thin_film_um=0.0)
     r = raytrace(stack, n_rows=3, n_cols=4, pitch_um=10.0, diode_w_um=6.0, diode_h_um=8.0,
                  site_x_um=[15.0, 3.0], site_y_um=[15.0, 28.0], site_radius_um=1.0,
                  well_side_um=6.0, rng=np.random.default_rng(2), n_rays=30_000, cache=False)
@@ -252,9 +256,10 @@ def test_every_ray_ends_once():
     codes = _k.empty_codes(5000)
     n, bottom, top, alpha = (np.array([1.33, 1.5]), np.array([2.0, 0.0]), np.array([3.0, 2.0]),
                              np.array([0.1, 0.0]))
+    films = _stack_arrays(Stack((Layer("w", 1.33, 1.0), Layer("g", 1.5, 2.0))), 4.3)[4:]
     _k.trace_chunk(np.random.default_rng(0), codes, 5.0, 5.0, _k.FOOT_POINT, 0.0,
                    _k.EMIT_ISOTROPIC, _k.POL_S, n, bottom, top, alpha, 4.3, _k.WALLS_NONE, 0.0,
-                   1, 1, 10.0, 4.0, 4.0, 100)
+                   1, 1, 10.0, 4.0, 4.0, 100, *films, 2)
     assert codes.min() >= 0 and codes.max() < 1 + _k.LAYER + 2
 
 
