@@ -171,8 +171,8 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
 def _as_built_term(s: Scenario, pixel_frames: int) -> CostTerm:
     """The converter-as-built's expected moments: by the series, or by the quadrature where
     :func:`~chiptwin.config.budget.as_built_quadrature` says (its nodes, by the kTC's ratio
-    to ``u``; an element with a wider shot noise takes more) over a window of ±10 ``u``, or from 3 LSB of ``u`` on the ideal transitions
-    the ends' closed form instead of the window."""
+    to ``u``; an element with a wider shot noise takes more) over a window of ±10 ``u``, or
+    from 3 LSB of ``u`` on the ideal transitions the ends' closed form instead of the window."""
     from chiptwin.pixel.adc import END_CLOSED_FROM_LSB
 
     a = s.chip.adc

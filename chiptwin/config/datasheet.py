@@ -235,12 +235,13 @@ def _read_noise(doc: _Doc, s: Scenario, cap_fF: float, gain: float) -> float:
     The datasheet's σ_y.dark (DN; else ``K²σ_d² + 1/12``: EMVA's σ_d removes one LSB²/12) is the
     twin's dark CMS frame, the mean of M signal samples minus the mean of M reset samples:
     ``σ²_y.dark = K²·(2σ_r²/M + 2·kTC²) + 2·q(M, K·σ_r)`` DN², kTC² only without true CDS and
-    ``q`` the rounding variance of a mean of M codes (:func:`~chiptwin.pixel.adc.quantization_var_of_mean`,
-    1/12 at no noise, 1/(12M) from ≈ 0.5 LSB). ``q`` falls as the noise grows, so in the
-    quantisation regime two read noises can give the same σ_y.dark: the larger is taken (the
-    worst chip the datasheet allows). Until a review found it this took σ_d for pure pixel noise,
-    √(σ_d²·M/2): a round trip added (2/12 − 1/12)/K² e⁻² of noise each time (σ_d +12 % on a
-    10-bit chip), and the reference datasheet's twin read 426 e⁻ for the chip's 100."""
+    ``q`` the rounding variance of a mean of M codes
+    (:func:`~chiptwin.pixel.adc.quantization_var_of_mean`, 1/12 at no noise, 1/(12M) from
+    ≈ 0.5 LSB). ``q`` falls as the noise grows, so in the quantisation regime two read noises
+    can give the same σ_y.dark: the larger is taken (the worst chip the datasheet allows). Until
+    a review found it this took σ_d for pure pixel noise, √(σ_d²·M/2): a round trip added
+    (2/12 − 1/12)/K² e⁻² of noise each time (σ_d +12 % on a 10-bit chip), and the reference
+    datasheet's twin read 426 e⁻ for the chip's 100."""
     from scipy.optimize import brentq
 
     from chiptwin.pixel.adc import quantization_var_of_mean

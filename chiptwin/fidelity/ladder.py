@@ -44,6 +44,7 @@ from chiptwin.config.consistency import check_consistency
 from chiptwin.detection.stats import mean_estimate
 from chiptwin.fidelity.auto import resolve, run
 from chiptwin.twin import shortcuts
+from chiptwin.twin.figures import save_figure
 from chiptwin.twin.levels import (
     LEVELS,
     SEEN_SNR_POWER,
@@ -52,7 +53,6 @@ from chiptwin.twin.levels import (
     reference_levels,
     with_levels,
 )
-from chiptwin.twin.figures import save_figure
 from chiptwin.twin.runner import chip_sensor
 
 #: Stages whose levels all draw the same random numbers for the same seed (the photon levels

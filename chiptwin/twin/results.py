@@ -8,7 +8,6 @@ statistics themselves (SNR, window sums) are pure functions in :mod:`chiptwin.de
 from __future__ import annotations
 
 import math
-
 from typing import TYPE_CHECKING, Any
 
 import numpy as np

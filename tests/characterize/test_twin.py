@@ -75,7 +75,8 @@ def _value(doc: dict, key: str) -> float:
 
 def test_datasheet_configures_the_scenario(sheet, tmp_path):
     """Every pixel and ADC value is its figure inverted through the model: qe = η/fill factor,
-    C = q/(K·LSB), read noise from σ_y.dark through the twin's CMS, full well = μ_e.sat + the dark charge at saturation,
+    C = q/(K·LSB), read noise from σ_y.dark through the twin's CMS, full well = μ_e.sat + the
+    dark charge at saturation,
     J at the reference temperature, T_d, PRNU, DSNU/(μ_I·t_spatial), pedestal from the reset
     level, ADC bits."""
     s = load_scenario(_write(tmp_path, sheet))

@@ -244,7 +244,7 @@ def test_event_pixels_fill_time_is_the_root_of_the_exact_integral():
         for frac in (1e-9, 0.25, 0.5, 0.999999, 1.0):
             got = ev._invert(t0, t1, frac * total, total)
             for p in range(2):
-                def excess(t, p=p):
+                def excess(t, p=p, t0=t0, frac=frac, total=total):
                     return ev.electrons_until(t0, np.full(2, t))[p] - frac * total[p]
 
                 root = brentq(excess, t0, t1, xtol=1e-15, rtol=4 * np.finfo(float).eps)

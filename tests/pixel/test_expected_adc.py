@@ -194,7 +194,7 @@ def test_quadrature_in_slices_is_the_whole_and_holds_little_memory(monkeypatch):
     monkeypatch.setattr(expected_adc, "QUAD_SLICE_VALUES", 1 << 40)  # one slice: the whole
     whole = expected_adc.cms_moments(conv, mean_e, mean_e, **kw)
     for got in (small, ragged):
-        assert all(np.array_equal(a, b) for a, b in zip(got, whole))
+        assert all(np.array_equal(a, b) for a, b in zip(got, whole, strict=True))
     # the memory estimate's term for these slices (config.budget.QUADRATURE_ARRAYS arrays)
     from chiptwin.config.budget import QUADRATURE_ARRAYS
 
