@@ -175,6 +175,7 @@ SLOW = {
     "tests/optics/test_psf.py::test_footprint_quadrature_meets_its_tolerance",
     "tests/optics/test_stack.py::test_cross_talk_falls_as_the_water_gap_shrinks",
     "tests/optics/test_thinfilm.py::test_a_thick_layer_averaged_over_the_band_is_the_incoherent_slab",
+    "tests/optics/test_wiring.py::test_a_passivation_film_is_coherent_and_reported",
     "tests/dsp/test_dsp_batch.py::test_batch_and_single_jobs_are_the_per_job_pipeline",
     "tests/dsp/test_dsp_routines.py::test_routine_matches_exact_reference",
     "tests/dsp/test_dsp_program.py::test_kinetics_variance_equals_monte_carlo",

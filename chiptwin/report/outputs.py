@@ -296,7 +296,7 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
 
 def _optics_rows(o: dict[str, Any] | None) -> list[tuple[str, str]]:
     """The optics lines of the headline: the run's own pixel and cross-talk, the emitter laws
-    when they differ beyond the budget, the faceplate against direct contact."""
+    when they differ beyond the budget, the faceplate against direct contact, thin films."""
     if not o:
         return []
 
@@ -315,5 +315,15 @@ def _optics_rows(o: dict[str, Any] | None) -> list[tuple[str, str]]:
         rows.append(("faceplate vs direct contact (psf)",
                      f"with: {light(fp['with'])}; without: {light(fp['without'])}"
                      + (f"; own pixel × {ratio:.3g}" if ratio else "")))
+    tf = o.get("thin_films")
+    if tf:
+        films = ", ".join(f"{f['name']} ({f['thickness_um']:g} µm, n {f['n']:g})"
+                          for f in tf["films"])
+        change = tf["change_rel"]
+        rows.append((f"thin films, coherent over {tf['band_nm']['peak']:g} ± "
+                     f"{tf['band_nm']['fwhm'] / 2:g} nm",
+                     f"{films}: plane fraction {tf['plane_fraction']['coherent']:.4g} "
+                     f"(rays alone {tf['plane_fraction']['rays_only']:.4g}"
+                     + (f", {change:+.1%}" if change is not None else "") + ")"))
     return rows
 

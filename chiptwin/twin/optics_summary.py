@@ -12,7 +12,11 @@ Three parts, each cheap (one site, at most a :data:`WINDOW` × :data:`WINDOW` wi
   ``snr_rel``, else :data:`LAW_SPREAD_DEFAULT`);
 * **the faceplate against direct contact** (a scenario with ``[optics.faceplate]``): own pixel,
   cross-talk and collected share at the ``psf`` level with the faceplate, and with the same
-  layers directly on the diodes.
+  layers directly on the diodes;
+* **thin films** (a stack with inner layers of at most ``optics.thin_film_um``): which layers
+  are crossed coherently, over which band, and the share of the emitted light reaching the
+  diode plane with them coherent against the same stack traced as rays alone
+  (``thin_film_um = 0``), at the ``psf`` level under the scenario's emitter law.
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ import numpy as np
 
 from chiptwin import optics
 from chiptwin.config import Scenario
+from chiptwin.optics.stack_psf import receiving_stack
 from chiptwin.twin import stages
 
 #: Side of the window of pixels around the centre site the law and faceplate figures use (the
@@ -60,7 +65,29 @@ def optics_figures(s: Scenario, coupling) -> dict[str, Any] | None:
     out["laws_differ_beyond_budget"] = bool(spread > budget)
     if o.faceplate.present:
         out["faceplate"] = faceplate_vs_direct(s)
+    films = thin_films(s)
+    if films:
+        out["thin_films"] = films
     return out
+
+
+def thin_films(s: Scenario) -> dict[str, Any] | None:
+    """The stack's thin films and what their coherence does to the plane fraction (None without
+    films, or under the paper's one-medium convention, which ignores the stack)."""
+    stack = stages.optics_stack(s)
+    into_silicon = s.optics.silicon_n > 0
+    receiving = receiving_stack(stack, into_silicon=into_silicon)
+    names = [layer for i, layer in enumerate(receiving.layers) if receiving.is_film(i)]
+    if not names or s.optics.law == optics.LAMBERTIAN_NA2:
+        return None
+    coherent = optics.plane_fraction_stack(stack, s.optics.law, into_silicon=into_silicon)
+    rays = optics.plane_fraction_stack(replace(stack, thin_film_um=0.0), s.optics.law,
+                                       into_silicon=into_silicon)
+    return {"films": [{"name": f.name, "n": f.n, "thickness_um": f.thickness_um}
+                      for f in names],
+            "band_nm": {"peak": stack.band.peak_nm, "fwhm": stack.band.fwhm_nm},
+            "plane_fraction": {"coherent": _r(coherent), "rays_only": _r(rays)},
+            "change_rel": _r(coherent / rays - 1.0) if rays > 0 else None}
 
 
 def _own_and_neighbour(s: Scenario, col: np.ndarray, p: int) -> dict[str, Any]:
@@ -130,4 +157,4 @@ def faceplate_vs_direct(s: Scenario) -> dict[str, Any]:
     return out
 
 
-__all__ = ["faceplate_vs_direct", "law_shares", "optics_figures"]
+__all__ = ["faceplate_vs_direct", "law_shares", "optics_figures", "thin_films"]
