@@ -300,6 +300,7 @@ def summarise(plan: Plan, table: list[dict], searched: dict[str, dict]) -> dict[
                          "violations": violations},
         "statistics": {"rates": "Clopper-Pearson at Korn-Graubard's effective n: trials pooled "
                                  "over replicates, the replicates as clusters",
+                       "design_effect": _design_effects(points),
                        "means": "Student t over replicates",
                        "snr_loss_db": "delta method on ln of mean power SNR, t quantile",
                        "requirement": "met when the one-sided bound at `confidence` is on the "
@@ -309,6 +310,25 @@ def summarise(plan: Plan, table: list[dict], searched: dict[str, dict]) -> dict[
         "runs": {"total": len(table), **counts},
         "chiptwin_version": __version__,
     }
+
+
+def _design_effects(points: list[dict]) -> str | None:
+    """Per rate metric, the design effects measured where they could be (0 < k < n): what a
+    point with k = 0 or k = n, whose bound assumes 1, can be judged by."""
+    found: dict[str, list[float]] = {}
+    for p in points:
+        for name, e in p["metrics"].items():
+            if "design_effect" in e and 0 < e["k"] < e["trials"]:
+                found.setdefault(name, []).append(e["design_effect"])
+    if not found:
+        return None
+    def span(d: list[float]) -> str:
+        lo, hi = f"{min(d):.3g}", f"{max(d):.3g}"
+        return lo if lo == hi else f"{lo}–{hi}"
+
+    return "; ".join(f"{name} {span(d)} at the {len(d)} point(s) with 0 < k < n"
+                     for name, d in found.items()) + \
+        " (a point with k = 0 or k = n takes 1: nothing to measure it from)"
 
 
 def _answer(study: Study, group: list[Point], status_of: dict) -> dict[str, Any]:

@@ -68,6 +68,17 @@ def test_answer_statistics_and_outputs(small_study, tmp_path):
         e = p["metrics"]["base_error_rate"]
         assert e["method"].startswith("Korn-Graubard") and e["n"] == 3 and e["upper"] > 0
         assert "snr_loss_db" in p["metrics"] and p["metrics"]["snr_loss_db"]["n"] == 3
+    # the design effects measured at the points with 0 < k < n, said beside the bounds
+    measured = [p["metrics"]["base_error_rate"]["design_effect"] for p in summary["points"]
+                if 0 < p["metrics"]["base_error_rate"]["k"] < p["metrics"]["base_error_rate"][
+                    "trials"]]
+    said = summary["statistics"]["design_effect"]
+    assert (said is None) == (not measured)
+    if measured:
+        lo, hi = f"{min(measured):.3g}", f"{max(measured):.3g}"
+        span = lo if lo == hi else f"{lo}–{hi}"
+        assert said.startswith(f"base_error_rate {span} at the {len(measured)} point(s)")
+        assert "design_effect: base_error_rate" in (out / "report.md").read_text()
     answer = summary["answer"][0]
     if answer["point"] is not None:  # the cheapest passing point, nothing cheaper passes
         cheaper = [p for p in summary["points"]
