@@ -373,18 +373,24 @@ class ProgramPipeline:
     def _bound(self, stage: str, case: Case) -> None:
         """With report_error: the stage's error against its analytic bound on this input, and
         that bound carried to the program's output (``bound_at_output``, the detection's units:
-        :meth:`error_gain`)."""
+        :meth:`error_gain`). ``bound_ok`` is True when every output was within the bound, False
+        when one was not, None when a register before the output overflowed (the bound does not
+        apply there); ``n_clipped`` counts outputs saturated at the output format, whose error
+        the bound leaves out."""
         if self.error is None:
             return
         r = compare(case)
-        b = self.stage_bounds.setdefault(stage, {"max_abs_err_lsb": 0.0, "bound_lsb": 0.0,
-                                                 "bound_ok": True, "outputs": 0,
-                                                 "gain_to_output": self.error_gain(stage),
-                                                 "bound_at_output": 0.0})
+        b = self.stage_bounds.get(stage)
+        if b is None:  # the gain once per stage: it builds the float map of the stages after
+            b = self.stage_bounds[stage] = {
+                "max_abs_err_lsb": 0.0, "bound_lsb": 0.0, "bound_ok": True, "outputs": 0,
+                "n_clipped": 0, "gain_to_output": self.error_gain(stage), "bound_at_output": 0.0}
         b["max_abs_err_lsb"] = max(b["max_abs_err_lsb"], r["max_abs_err_in_range_lsb"])
         b["bound_lsb"] = max(b["bound_lsb"], r["bound_lsb"])
         b["bound_at_output"] = b["bound_lsb"] * case.cfg.out_fmt.lsb * b["gain_to_output"]
-        b["bound_ok"] = bool(b["bound_ok"] and r["bound_ok"] is not False)
+        if b["bound_ok"] is not False and r["bound_ok"] is not True:
+            b["bound_ok"] = r["bound_ok"]  # False (exceeded) outranks None (not applicable)
+        b["n_clipped"] += r["n_clipped"]
         b["outputs"] += r["n_outputs"]
 
     def error_gain(self, stage: str) -> float:

@@ -145,7 +145,11 @@ class Calibrations(CachedEstimates):
         how = ("M, K, N powers of two: the fixed chain is exact" if lsb == 0 else
                f"the chain's rounding, at most {lsb:.3g} LSB per output")
         if not is_default(d.program):
-            front_gain, later = self._program_bound_lsb()
+            front_gain, later, broken = self._program_bound_lsb()
+            if broken:
+                return Estimate(dict.fromkeys(FIGURES, math.inf),
+                                f"{broken} on this scene: fixed differs from float without "
+                                "the analytic bound")
             lsb = lsb * front_gain + later
             further = [st for st in d.program if st not in DEFAULT_PROGRAM]
             how += (f", × {front_gain:.3g} through the program; its further stages "
@@ -158,21 +162,32 @@ class Calibrations(CachedEstimates):
                   "flow_value_abs": 2 * lsb * e_per_lsb / signal}
         return Estimate(_with_snr(errors), how)
 
-    def _program_bound_lsb(self) -> tuple[float, float]:
-        """The chain's error gain to the program's output, and the sum of the analytic bounds of
-        the program's stages after the chain (kinetics, bin_rows, fir8, wiener: coefficient
+    def _program_bound_lsb(self) -> tuple[float, float, str | None]:
+        """The chain's error gain to the program's output, the sum of the analytic bounds of the
+        program's stages after the chain (kinetics, bin_rows, fir8, wiener: coefficient
         quantisation and rounding, which depend on the data) carried to its output, in the
         units the detection reads (ADC LSB of a window total: :meth:`chiptwin.dsp.
         program_pipeline.ProgramPipeline.error_gain`), from one fixed-point run of the scene
-        with ``report_error``. Each stage's bound is in its own output LSB and passes through
-        the stages after it: a sum in LSB of different formats (as once here) understates a
-        Wiener equalizer's amplified error and overstates a kinetics stage's fine LSB."""
+        with ``report_error``; and what breaks the bounds there, or None. Each stage's bound is
+        in its own output LSB and passes through the stages after it: a sum in LSB of
+        different formats (as once here) understates a Wiener equalizer's amplified error and
+        overstates a kinetics stage's fine LSB. A register that saturated or wrapped anywhere
+        in the run, a stage whose outputs clipped, or one that broke its bound leaves the error
+        unbounded (a wrapped kinetics accumulator once passed as 0.5 LSB against 29,000)."""
         sv = with_levels(self.s, {**self.ref, "photons": "binned", "dsp": "fixed"})
         sv = replace(sv, chip=replace(sv.chip, dsp=replace(sv.chip.dsp, report_error=True)))
-        fig = runner.run(sv).summary["dsp_program"]
+        summary = runner.run(sv).summary
+        fig = summary["dsp_program"]
         bounds = fig.get("stage_error_bounds", {})
+        broken = [f"{reg} overflowed ({c['sat']} saturated, {c['wrap']} wrapped)"
+                  for reg, c in summary["dsp"]["overflow"].items() if c["sat"] or c["wrap"]]
+        broken += [f"stage {st} clipped {b['n_clipped']} outputs" for st, b in bounds.items()
+                   if b["n_clipped"]]
+        broken += [f"stage {st} {'broke its bound' if b['bound_ok'] is False else 'overflowed'}"
+                   for st, b in bounds.items() if b["bound_ok"] is not True]
         return (float(fig.get("front_error_gain", 1.0)),
-                float(sum(b["bound_at_output"] for b in bounds.values())))
+                float(sum(b["bound_at_output"] for b in bounds.values())),
+                "; ".join(broken) or None)
 
     # -- the scene at the expected level -----------------------------------------------------
 

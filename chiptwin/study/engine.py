@@ -296,7 +296,8 @@ def summarise(plan: Plan, table: list[dict], searched: dict[str, dict]) -> dict[
         "requirement": [str(q) for q in study.requirements],
         "answer": answers, "points": points,
         "monotonicity": {"assumption": "along each budget axis, cheapest first, a point that "
-                         "meets the requirement is followed only by points that meet it",
+                         "meets the requirement is followed by no point that fails it (an "
+                         "undecided one, whose interval allows a pass, breaks nothing)",
                          "violations": violations},
         "statistics": {"rates": "Clopper-Pearson at Korn-Graubard's effective n: trials pooled "
                                  "over replicates, the replicates as clusters",
@@ -313,12 +314,13 @@ def summarise(plan: Plan, table: list[dict], searched: dict[str, dict]) -> dict[
 
 
 def _design_effects(points: list[dict]) -> str | None:
-    """Per rate metric, the design effects measured where they could be (0 < k < n): what a
-    point with k = 0 or k = n, whose bound assumes 1, can be judged by."""
+    """Per rate metric, the design effects measured where they could be (0 < k < n, at least
+    ``MIN_CLUSTER_RUNS`` runs): what a point with k = 0 or k = n, whose bound assumes 1, can be
+    judged by."""
     found: dict[str, list[float]] = {}
     for p in points:
         for name, e in p["metrics"].items():
-            if "design_effect" in e and 0 < e["k"] < e["trials"]:
+            if e.get("method", "").startswith("Korn-Graubard") and 0 < e["k"] < e["trials"]:
                 found.setdefault(name, []).append(e["design_effect"])
     if not found:
         return None

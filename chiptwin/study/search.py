@@ -4,12 +4,15 @@ Both work on "decisions" (``pass``/``fail``/``undecided`` per point, from
 :func:`chiptwin.detection.stats.decide`) and share the monotonicity check and the answer rule.
 
 **The monotonicity assumption.** Along a budget axis (cheapest value first) a point that meets
-the requirement is assumed to be followed only by points that meet it too: more ADC bits, more
-memory or more DNA never make the chip worse. Bisection relies on it to skip points; both
-searches check it on every point they visited, and report a violation (a pass followed by a
-fail further along the axis, or a metric significantly worse at a costlier point), never hide
-it. A bisection also re-checks ``verify`` points between its answer and the costliest passing
-point; a violation found there moves the search above it.
+the requirement is assumed to be followed by no point that fails it: more ADC bits, more memory
+or more DNA never make the chip worse (an undecided point, whose interval allows a pass, breaks
+nothing). Bisection relies on it to skip points; both searches check it on every point they
+visited, and report a violation (a pass followed by a fail further along the axis, or a metric
+significantly worse at a costlier point), never hide it. A bisection also re-checks ``verify``
+points between its answer and the costliest passing point; a failure found there moves the
+search above it. A bisection's midpoint that is undecided counts as not meeting the
+requirement (the search goes above it), so a bisection may answer above a cheaper point that a
+grid would show to pass.
 """
 
 from __future__ import annotations

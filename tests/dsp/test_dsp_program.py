@@ -220,6 +220,24 @@ def test_stage_bounds_carried_to_the_output_bound_the_programs_error(small_toml,
         assert stages["kinetics"]["gain_to_output"] == pytest.approx(scale, rel=1e-12)
 
 
+def test_a_wrapped_stage_leaves_the_dsp_error_unbounded(small_toml):
+    """A kinetics accumulator of 34 bits (allowed) under 100 photons an incorporation wraps: the
+    stage's check reports its bound as not applicable (None, not True), and fidelity.auto's
+    float-DSP level states no bound, naming the register (it once said 0.51 LSB against a
+    measured 29,000)."""
+    from chiptwin.fidelity.auto import Calibrations
+    from chiptwin.twin.levels import reference_levels
+
+    sets = [_prog(KINETICS), "chip.dsp.kinetics_acc_bits=34",
+            "assay.photons_per_incorporation=100"]
+    r = run(small_toml, [*sets, "chip.dsp.mode=fixed", "chip.dsp.report_error=true"])
+    assert r.summary["dsp"]["overflow"]["kinetics.acc"]["wrap"] > 0
+    assert r.summary["dsp_program"]["stage_error_bounds"]["kinetics"]["bound_ok"] is None
+    s = load_scenario(small_toml, sets)
+    est = Calibrations(s, reference_levels(s), None).calibrate("dsp", "float")
+    assert est.errors["dsp_lsb"] == float("inf") and "kinetics.acc overflowed" in est.how
+
+
 def test_fir_row_alignment_against_an_exact_oracle(small_toml, rng):
     """The FIR along each row, read FIR_ALIGN columns late: codes equal the exact sum
     ``Σ h_q[k] x[c + 4 − k]`` rounded RND (ties up) and saturated, on random rows, ties and

@@ -13,6 +13,7 @@ import sys
 import time
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
 from chiptwin.cli import main, resolve_scenario
@@ -66,19 +67,12 @@ def test_answer_statistics_and_outputs(small_study, tmp_path):
         summary)
     for p in summary["points"]:
         e = p["metrics"]["base_error_rate"]
-        assert e["method"].startswith("Korn-Graubard") and e["n"] == 3 and e["upper"] > 0
+        assert "3 runs < 10: the design effect not measured" in e["method"]
+        assert e["n"] == 3 and e["upper"] > 0
         assert "snr_loss_db" in p["metrics"] and p["metrics"]["snr_loss_db"]["n"] == 3
     # the design effects measured at the points with 0 < k < n, said beside the bounds
-    measured = [p["metrics"]["base_error_rate"]["design_effect"] for p in summary["points"]
-                if 0 < p["metrics"]["base_error_rate"]["k"] < p["metrics"]["base_error_rate"][
-                    "trials"]]
-    said = summary["statistics"]["design_effect"]
-    assert (said is None) == (not measured)
-    if measured:
-        lo, hi = f"{min(measured):.3g}", f"{max(measured):.3g}"
-        span = lo if lo == hi else f"{lo}–{hi}"
-        assert said.startswith(f"base_error_rate {span} at the {len(measured)} point(s)")
-        assert "design_effect: base_error_rate" in (out / "report.md").read_text()
+    # 3 runs a point: no design effect is measured, and the statistics say none
+    assert summary["statistics"]["design_effect"] is None
     answer = summary["answer"][0]
     if answer["point"] is not None:  # the cheapest passing point, nothing cheaper passes
         cheaper = [p for p in summary["points"]
@@ -215,3 +209,24 @@ def test_a_bisections_bands_are_labelled_at_their_per_look_level(tmp_path):
     write_study_outputs(result, out)
     report = (out / "report.md").read_text()
     assert "interval at 0.9667 confidence" in report and "at 0.9 confidence" not in report
+
+
+def test_design_effects_are_said_where_they_were_measured():
+    """study.json's statistics.design_effect: per rate metric the measured range over the points
+    with 0 < k < n and a Korn–Graubard estimate (10 runs or more); points with k = 0, or too few
+    runs to measure it, are not in it."""
+    from chiptwin.detection.stats import rate_estimate
+    from chiptwin.study.engine import _design_effects
+
+    def point(k, runs):
+        e = rate_estimate(np.array(k), np.full(runs, 36), 0.95)
+        return {"metrics": {"base_error_rate": e.as_dict()}}
+
+    points = [point([4, 0, 0, 0, 0, 0, 0, 0, 0, 0], 10), point([1] * 10, 10),
+              point([0] * 10, 10), point([5, 0, 0], 3)]
+    d0 = points[0]["metrics"]["base_error_rate"]["design_effect"]
+    assert d0 > 1
+    assert _design_effects(points) == (
+        f"base_error_rate 1–{d0:.3g} at the 2 point(s) with 0 < k < n (a point with k = 0 or "
+        "k = n takes 1: nothing to measure it from)")
+    assert _design_effects(points[2:]) is None

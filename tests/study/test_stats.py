@@ -41,38 +41,60 @@ def test_zero_of_n_reports_the_rule_of_three_bound_never_zero():
     assert est.n == 100 and est.trials == 3000 and est.design_effect == 1.0
 
 
-def _korn_graubard_oracle(k, n, confidence):
-    """The two-sided interval written from the paper's recipe another way: the ratio
-    estimator's variance from the sample covariance of (k, n) (S_k² − 2p S_kn + p² S_n²)/(N n̄²),
-    and the Beta bounds through scipy.stats.binomtest's exact interval where n* is whole."""
+def _korn_graubard_oracle(k, n, tail):
+    """The bounds at ``tail`` written from the paper's recipe another way: the ratio
+    estimator's variance from the sample covariance of (k, n) (S_k² − 2p S_kn + p² S_n²)/(N n̄²);
+    the degrees-of-freedom factor only where the design effect is above 1 (else the binomial
+    variance, no estimated one)."""
     N, p = len(k), k.sum() / n.sum()
     c = np.cov(np.vstack([k, n]).astype(float))
     var = (c[0, 0] - 2 * p * c[0, 1] + p * p * c[1, 1]) / (N * n.mean() ** 2)
-    deff = max(var / (p * (1 - p) / n.sum()), 1.0)
-    tail = (1 - confidence) / 2
-    ratio = stats.t.ppf(1 - tail, n.sum() - 1) / stats.t.ppf(1 - tail, N - 1)
-    n_eff = n.sum() / deff * ratio**2
+    deff = var / (p * (1 - p) / n.sum())
+    n_eff = float(n.sum())
+    if deff > 1:
+        ratio = stats.t.ppf(1 - tail, n.sum() - 1) / stats.t.ppf(1 - tail, N - 1)
+        n_eff = n.sum() / deff * ratio**2
     lo = stats.beta.ppf(tail, p * n_eff, n_eff - p * n_eff + 1)
     hi = stats.beta.ppf(1 - tail, p * n_eff + 1, n_eff - p * n_eff)
-    return lo, hi, deff
+    return lo, hi, max(deff, 1.0)
 
 
 @pytest.mark.parametrize("k", [[0, 0, 0, 12], [3, 1, 0, 2, 5], [1, 1, 1, 1], [30, 2, 0, 0, 9]])
 def test_korn_graubard_matches_the_papers_recipe(k):
-    """Oracle: Korn & Graubard (1998) computed from the covariance of (k, n), not residuals."""
-    k, n = np.array(k), np.array([36, 36, 36, 40, 30][: len(k)])
+    """Oracle: Korn & Graubard (1998) computed from the covariance of (k, n), not residuals,
+    two-sided (each tail 2.5 %) and one-sided (5 %: the bounds decisions use); each pattern
+    repeated over 12 runs (at least 10: the design effect is measured)."""
+    k, n = np.tile(k, 3), np.tile([36, 36, 36, 40, 30][: len(k)], 3)
     est = rate_estimate(k, n, 0.95)
-    lo, hi, deff = _korn_graubard_oracle(k, n, 0.95)
+    lo, hi, deff = _korn_graubard_oracle(k, n, 0.025)
+    lower, upper, _ = _korn_graubard_oracle(k, n, 0.05)
     assert est.design_effect == pytest.approx(deff, rel=1e-9)
     assert (est.lo, est.hi) == pytest.approx((lo, hi), rel=1e-9)
+    assert (est.lower, est.upper) == pytest.approx((lower, upper), rel=1e-9)
+
+
+def test_unclustered_or_few_runs_keep_clopper_pearson():
+    """Fewer than 10 runs, no clustering measured (design effect ≤ 1), or one trial a run: the
+    plain Clopper–Pearson bounds, so a few runs with one error keep a usable bound
+    (Korn–Graubard's degrees-of-freedom factor over 2 runs once made it 0.9997 against 0.142)."""
+    est = rate_estimate(np.array([1, 0]), np.array([20, 20]), 0.9833)
+    assert est.upper == pytest.approx(clopper_pearson(1, 40, 0.9833, sided="one")[1], rel=1e-12)
+    assert "2 runs < 10" in est.method
+    spread = rate_estimate(np.array([1] * 10 + [0] * 10), np.full(20, 20), 0.95)
+    assert spread.design_effect == 1.0 and spread.upper == pytest.approx(
+        clopper_pearson(10, 400, 0.95, sided="one")[1], rel=1e-12)
+    valid = rate_estimate(np.array([1] * 19 + [0]), np.ones(20), 0.95)
+    assert (valid.lower, valid.upper) == pytest.approx(
+        clopper_pearson(19, 20, 0.95, sided="one"), rel=1e-12)
+    assert valid.method == "Clopper-Pearson exact (one trial a run)"
 
 
 def test_errors_in_one_run_widen_the_interval_that_spread_errors_do_not():
-    """The same 12 errors in 144 bases: all in one of 4 runs is a design effect of 4.4 and a
-    wider interval; 3 in each run measures none (taken as 1)."""
-    clumped = rate_estimate(*_runs([12, 0, 0, 0], 36), 0.95)
-    spread = rate_estimate(*_runs([3, 3, 3, 3], 36), 0.95)
-    assert spread.design_effect == 1.0 and clumped.design_effect > 4
+    """The same 36 errors in 432 bases: all in three of 12 runs is a design effect of 10.7 and
+    a wider interval; 3 in each run measures none (taken as 1)."""
+    clumped = rate_estimate(*_runs([12, 0, 0, 0] * 3, 36), 0.95)
+    spread = rate_estimate(*_runs([3, 3, 3, 3] * 3, 36), 0.95)
+    assert spread.design_effect == 1.0 and clumped.design_effect > 10
     assert clumped.hi > spread.hi and clumped.lo < spread.lo
 
 
@@ -81,18 +103,20 @@ def test_errors_in_one_run_widen_the_interval_that_spread_errors_do_not():
 def test_clustered_rate_coverage_is_95_percent_by_monte_carlo(p, icc, runs, expected_deff):
     """Base errors that clump within runs (beta-binomial: each run's rate drawn from a Beta of
     mean p and intra-run correlation icc, 36 bases a run, design effect 1 + 35·icc): the
-    Korn–Graubard interval covers p in 95 ± 3 % of 1,500 repeats, the pooled Clopper–Pearson
-    interval far less (68 % and 78 % measured) — why runs are clusters."""
+    Korn–Graubard interval, and its one-sided upper bound, cover p in 95 ± 3 % of 1,500
+    repeats, the pooled Clopper–Pearson interval far less (68 % and 78 % measured) — why runs are
+    clusters."""
     rng = np.random.default_rng(1998)
     a, b = p * (1 - icc) / icc, (1 - p) * (1 - icc) / icc
-    kg = cp = 0
+    kg = cp = kg_upper = 0
     for _ in range(1500):
         k = rng.binomial(36, rng.beta(a, b, runs))
         est = rate_estimate(k, np.full(runs, 36), 0.95)
         kg += est.lo <= p <= est.hi
+        kg_upper += p <= est.upper
         lo, hi = clopper_pearson(int(k.sum()), 36 * runs, 0.95)
         cp += lo <= p <= hi
-    assert 0.92 <= kg / 1500 <= 0.98
+    assert 0.92 <= kg / 1500 <= 0.98 and 0.92 <= kg_upper / 1500 <= 0.98
     assert cp / 1500 < 0.85
 
 
