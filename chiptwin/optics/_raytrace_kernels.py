@@ -86,12 +86,21 @@ def _wall_distance(x, y, dx, dy, x_lo, x_hi, y_lo, y_hi) -> tuple[float, int]:
 
 
 @NJIT
-def _film_rt(tab, f, direction, pol, lam, beta, beta_max) -> tuple[float, float]:
+def _film_rt(tab, cos_c, f, direction, pol, lam, cos_i) -> tuple[float, float]:
     """Band node ``lam``'s reflectance and transmittance of film group ``f`` met in
-    ``direction`` (0 down, 1 up) at Snell's invariant ``beta``: linear in β on the table's
-    uniform grid over ``[0, beta_max]``; :data:`POL_AVERAGE` the mean of s and p."""
+    ``direction`` (0 down, 1 up) at the incidence cosine ``cos_i``, linear between the table's
+    nodes: uniform in cos θ up to the exit's critical cosine ``c = cos_c[f, direction]`` (0
+    when the exit is denser), then uniform in ``s = √(cos² θ − c²)``, the exit's own cosine up
+    to a factor, in which R and T are smooth where they turn as √(cos θ − c);
+    :data:`POL_AVERAGE` the mean of s and p (the node layout: :func:`film_nodes`)."""
     nb = tab.shape[5]
-    x = min(beta / beta_max, 1.0) * (nb - 1)
+    c = cos_c[f, direction]
+    split = film_split(nb, c)
+    cos_i = min(cos_i, 1.0)
+    if cos_i <= c:
+        x = cos_i / c * split
+    else:
+        x = split + math.sqrt(cos_i * cos_i - c * c) / math.sqrt(1.0 - c * c) * (nb - 1 - split)
     j = min(int(x), nb - 2)
     w = x - j
     r = t = 0.0
@@ -106,11 +115,31 @@ def _film_rt(tab, f, direction, pol, lam, beta, beta_max) -> tuple[float, float]
 
 
 @NJIT
+def film_split(nodes: int, cos_c: float) -> int:
+    """Index of a film table's node at the exit's critical cosine ``cos_c`` (0 when none): the
+    nodes below it are uniform in cos θ over ``[0, cos_c]``, those above uniform in
+    ``√(cos² θ − cos_c²)``; each side gets nodes in proportion to its variable's range (``cos_c``
+    and ``√(1 − cos_c²)``), at least 2."""
+    if cos_c <= 0.0:
+        return 0
+    share = cos_c / (cos_c + math.sqrt(1.0 - cos_c * cos_c))
+    return min(max(int(round(share * (nodes - 1))), 2), nodes - 3)
+
+
+def film_nodes(nodes: int, cos_c: float) -> np.ndarray:
+    """The incidence cosines of a film table's nodes (:func:`film_split`'s layout)."""
+    split = film_split(nodes, cos_c)
+    below = np.linspace(0.0, cos_c, split + 1)[:-1] if split else np.zeros(0)
+    s = np.linspace(0.0, math.sqrt(1.0 - cos_c * cos_c), nodes - split)
+    return np.concatenate([below, np.sqrt(s * s + cos_c * cos_c)])
+
+
+@NJIT
 def trace_chunk(
     gen, out, site_x, site_y, foot_shape, foot_size, emitter, pol_mode,
     n_layer, z_bottom, z_top, alpha, n_si, walls, well_half,
     n_rows, n_cols, pitch, half_w, half_h, max_events,
-    layer_code, film_of, film_tab, film_beta_max, film_code, band_cdf, fp_layer,
+    layer_code, film_of, film_tab, film_cos_c, film_code, band_cdf, fp_layer,
     fp_na=0.0, fp_pitch=0.0, fp_open=1.0,
 ):
     """Trace ``out.size`` rays from one site; write each ray's outcome code into ``out``.
@@ -134,8 +163,10 @@ def trace_chunk(
     below the last), −1 for a bare interface. A ray draws one wavelength of the band at its
     start (``band_cdf``, only when there are films: the streams of a stack without are
     unchanged) and keeps it, so every pass through a group sees that wavelength's coherent
-    reflectance and transmittance (``film_tab[f, direction, pol, R|T, wavelength, β]``); the
-    rest, ``1 − R − T``, is absorbed in the group (code ``LAYER + film_code[f]``). Absorption in
+    reflectance and transmittance (``film_tab[f, direction, pol, R|T, wavelength, node]``, the
+    nodes of :func:`film_nodes` with the exit's critical cosine ``film_cos_c[f, direction]``);
+    the rest, ``1 − R − T``, is absorbed in the group (code ``LAYER + film_code[f]``, the
+    group's first film: a group's absorption is not split between its films). Absorption in
     ray layer ``i`` is ``LAYER + layer_code[i]``, in the faceplate ``LAYER + fp_layer`` (the
     stack's layer count).
     """
@@ -216,15 +247,14 @@ def trace_chunk(
                     dz = -dz
                     continue
             else:
-                beta = n_layer[i] * math.sqrt(max(0.0, 1.0 - dz * dz))
-                way = 0 if down else 1
-                refl, trans = _film_rt(film_tab, f, way, pol, lam, beta, film_beta_max[f, way])
+                refl, trans = _film_rt(film_tab, film_cos_c, f, 0 if down else 1, pol, lam,
+                                       abs(dz))
                 u = gen.random()
-                if u < refl:
-                    dz = -dz
-                    continue
-                sin_t2 = (beta / n2) ** 2
-                if u >= refl + trans or sin_t2 >= 1.0:
+                sin_t2 = (n_layer[i] / n2) ** 2 * (1.0 - dz * dz)
+                if u < refl or (sin_t2 >= 1.0 and u < refl + trans):
+                    dz = -dz  # beyond the exit's critical angle nothing is transmitted: the
+                    continue  # table's interpolated T there is reflection
+                if u >= refl + trans:
                     code = n_pix + LAYER + film_code[f]
                     break
                 cos_t = math.sqrt(1.0 - sin_t2)

@@ -80,11 +80,12 @@ class Band:
         return lam_nm * 1e-3, w / w.sum()
 
     def node_count(self, layers: Sequence[Layer]) -> int:
-        """Enough wavelengths to resolve the fringes of the thickest inner layer: its period in
-        λ is ``λ²/(2 n d)`` (at normal incidence; longer when oblique), :data:`_PER_FRINGE` nodes
-        each, at least 33 over the band, at most :data:`MAX_NODES`."""
+        """Enough wavelengths to resolve the finest fringes of the inner layers: the whole inner
+        stack's round trip ``2 Σ n d`` gives the shortest period in λ, ``λ²/(2 Σ n d)`` (at
+        normal incidence; longer when oblique), :data:`_PER_FRINGE` nodes each, at least 33
+        over the band, at most :data:`MAX_NODES`."""
         lam_lo_um = (self.peak_nm - 4.0 * self.sigma_nm) * 1e-3
-        path = max((2.0 * layer.n * layer.thickness_um for layer in layers[1:-1]), default=0.0)
+        path = sum(2.0 * layer.n * layer.thickness_um for layer in layers[1:-1])
         if path == 0.0:
             return 33
         period_nm = lam_lo_um**2 / path * 1e3

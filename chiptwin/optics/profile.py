@@ -128,13 +128,16 @@ def _rays(stack: Stack, theta_m: NDArray, law: str):
     # p stay apart: (ΠTₛ + ΠTₚ)/2. The product of per-interface averages, Π(Tₛ + Tₚ)/2, is less
     # whenever Tₛ ≠ Tₚ (−0.7 % of the plane fraction for water | Si₃N₄ | Si; −1.6 % two pixels out)
     t_s, t_p = np.ones_like(theta_m), np.ones_like(theta_m)
+    groups = []
     for i in range(len(n) - 1):
-        if films[i]:  # the films' multiple reflections as amplitudes, over the emission band
-            ts, tp = (a.reshape(beta.shape) for a in thinfilm.band_average(
-                (layers[i], *films[i], layers[i + 1]), beta, stack.band))
+        if films[i]:
+            groups.append((layers[i], *films[i], layers[i + 1]))
         else:
             ts, tp = fresnel_polarised(n[i], n[i + 1], beta)
-        t_s, t_p = t_s * ts, t_p * tp
+            t_s, t_p = t_s * ts, t_p * tp
+    if groups:  # the films' reflections as amplitudes; one wavelength meets every group
+        gs, gp = thinfilm.band_product(groups, beta, stack.band)
+        t_s, t_p = t_s * gs.reshape(beta.shape), t_p * gp.reshape(beta.shape)
     weight = np.exp(-optical_depth) * 0.5 * (t_s + t_p)
     return rho, _emission(n, theta_m, cos[0], law) * weight, drho
 

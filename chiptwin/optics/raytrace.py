@@ -92,7 +92,7 @@ MAX_EVENTS: int = 10_000
 MAX_RAYS_PER_SITE: int = 10**9
 """Largest ray count the error rule may ask for (≈ 10 min per site at 2 M rays/s)."""
 
-KERNEL_VERSION: int = 2
+KERNEL_VERSION: int = 3
 """Part of the cache key: raise it whenever the kernel's physics or stream use change."""
 
 
@@ -284,9 +284,12 @@ def _well(well_side_um: float | None, shape: str, size: float) -> float:
     return side / 2.0
 
 
-#: Snell-invariant nodes of a film group's tables (linear between: the films are ≤ 10 µm, their
-#: R and T vary over ≥ 1/50 of the range; measured interpolation error < 1e-4 in the tests).
-FILM_BETA_NODES: int = 2049
+#: Nodes of a film group's tables over the incidence cosine (``_raytrace_kernels.film_nodes``:
+#: uniform in cos θ up to the exit's critical cosine, then in the exit's own cosine, where R and
+#: T are smooth; they turn as a square root in β at grazing and at the critical angle). Linear
+#: interpolation between them is within 2e-4 of the transfer matrix (tests/optics/
+#: test_thinfilm.py).
+FILM_COS_NODES: int = 1025
 
 
 def _stack_arrays(stack: Stack, n_below: float) -> tuple:
@@ -317,36 +320,43 @@ def _stack_arrays(stack: Stack, n_below: float) -> tuple:
 
 def _film_tables(stack: Stack, rays, films, n_below: float, code: NDArray) -> tuple:
     """``film_of`` (per interface below each ray layer: its group or −1), the groups' tables
-    ``(F, 2 directions, 2 polarisations, R|T, wavelengths, β)`` with each one's β range and
-    outcome code, and the band's cumulative weights (all empty without films)."""
+    ``(F, 2 directions, 2 polarisations, R|T, wavelengths, nodes)`` with each direction's
+    critical cosine (the node layout) and outcome code, and the band's cumulative weights (all
+    empty without films)."""
     groups = [k for k, f in enumerate(films) if f]
     film_of = np.full(len(rays), -1, np.int64)
     if not groups:
-        return (film_of, np.zeros((0, 2, 2, 2, 1, 2)), np.zeros((0, 2)),
-                np.zeros(0, np.int64), np.ones(1))
-    count = max(stack.band.node_count((rays[k], *films[k], Layer("x", n_below, 0.0)))
-                for k in groups)
-    lam, weights = stack.band.nodes(count)
-    tab = np.zeros((len(groups), 2, 2, 2, lam.size, FILM_BETA_NODES))
-    beta_max = np.zeros((len(groups), 2))
+        return (film_of, np.zeros((0, 2, 2, 2, 1, 2)), np.zeros((0, 2)), np.zeros(0, np.int64),
+                np.ones(1))
+    full = [(rays[k], *films[k], rays[k + 1] if k + 1 < len(rays) else
+             Layer("below", n_below, 0.0)) for k in groups]
+    lam, weights = stack.band.nodes(max(stack.band.node_count(g) for g in full))
+    tab = np.zeros((len(groups), 2, 2, 2, lam.size, FILM_COS_NODES))
+    cos_c = np.zeros((len(groups), 2))
     film_code = np.zeros(len(groups), np.int64)
-    for f, k in enumerate(groups):
-        after = rays[k + 1] if k + 1 < len(rays) else Layer("below", n_below, 0.0)
-        group = (rays[k], *films[k], after)
+    step = max(1, thinfilm.CHUNK // lam.size)  # cosines a pass: temporaries of ≈ CHUNK values
+    for f, (k, group) in enumerate(zip(groups, full, strict=True)):
         film_of[k] = f
         film_code[f] = code[k] + 1  # the group's first film, right below ray layer k
         for way, layers in enumerate((group, group[::-1])):
-            beta_max[f, way] = layers[0].n
-            beta = np.linspace(0.0, layers[0].n, FILM_BETA_NODES)[:, None]
+            if way == 1 and k + 1 == len(rays):
+                continue  # nothing comes back up out of the plane below: the table is not read
+            n_in, n_out = layers[0].n, layers[-1].n
+            cos_c[f, way] = math.sqrt(1.0 - (n_out / n_in) ** 2) if n_out < n_in else 0.0
+            cos = _k.film_nodes(FILM_COS_NODES, cos_c[f, way])
             idx = thinfilm.complex_indices(layers, lam)
             d = np.array([layer.thickness_um for layer in layers])
-            for pol_i, pol in enumerate(("s", "p")):
-                with np.errstate(divide="ignore", invalid="ignore"):  # grazing: the last node
-                    r, _ = thinfilm.amplitudes(idx, d, lam[None, :], beta, pol)
-                    big_t = thinfilm.transmittance(idx, d, lam[None, :], beta, pol)
-                tab[f, way, pol_i, 0] = np.nan_to_num(np.abs(r) ** 2, nan=1.0).T
-                tab[f, way, pol_i, 1] = np.nan_to_num(big_t, nan=0.0).T
-    return film_of, tab, beta_max, film_code, np.cumsum(weights)
+            for lo in range(0, cos.size, step):
+                c = cos[lo:lo + step, None]
+                beta = layers[0].n * np.sqrt(1.0 - c * c)
+                for pol_i, pol in enumerate(("s", "p")):
+                    with np.errstate(divide="ignore", invalid="ignore"):  # grazing: cos = 0
+                        r, _ = thinfilm.amplitudes(idx, d, lam[None, :], beta, pol)
+                        big_t = thinfilm.transmittance(idx, d, lam[None, :], beta, pol)
+                    tab[f, way, pol_i, 0, :, lo:lo + step] = np.nan_to_num(
+                        np.abs(r) ** 2, nan=1.0).T
+                    tab[f, way, pol_i, 1, :, lo:lo + step] = np.nan_to_num(big_t, nan=0.0).T
+    return film_of, tab, cos_c, film_code, np.cumsum(weights)
 
 
 # --- the public function ------------------------------------------------------------------------

@@ -355,7 +355,7 @@ def plane_fraction_stack(stack: Stack, emitter: str, *, into_silicon: bool = Fal
     below the first (slab factor ``T₁₂T₂₃/(1 − R₂₁R₂₃)`` per polarisation, REFERENCE §2, nested):
     the energy the single pass leaves out, which the ``raytrace`` level places. ``"coherent"``:
     the multiple reflections as amplitudes (transfer matrices, :mod:`chiptwin.optics.thinfilm`)
-    averaged over the emission ``band`` (default: the luciferase's, 562 nm, 70 nm FWHM), over
+    averaged over the emission ``band`` (default: the stack's own), over
     every angle the emitter sends down, so light that tunnels through a thin low-index layer
     beyond its critical angle counts; wavelength nodes double until two counts agree within
     ``rtol`` of the fraction.
@@ -368,7 +368,7 @@ def plane_fraction_stack(stack: Stack, emitter: str, *, into_silicon: bool = Fal
     if reflections == "single":
         return build_profile(receiving, law).total
     if reflections == "coherent":
-        return _coherent_fraction(layers, law, band or thinfilm.Band(), rtol)
+        return _coherent_fraction(layers, law, band or stack.band, rtol)
     if reflections != "incoherent":
         raise ValueError(f"reflections = {reflections!r}: must be 'single', 'incoherent' or "
                          "'coherent'")
@@ -395,8 +395,9 @@ def _coherent_fraction(layers: tuple[Layer, ...], law: str, band: thinfilm.Band,
     s_last = n0 * np.sin(theta) / n_last
     cos_last = np.sqrt(np.maximum(1.0 - s_last * s_last, 0.0))
     path = np.exp(-layers[0].alpha_per_um * layers[0].thickness_um / cos0)
-    with np.errstate(divide="ignore"):  # beyond the last layer's critical angle T is 0 anyway
-        path = path * np.exp(-layers[-1].alpha_per_um * layers[-1].thickness_um / cos_last)
+    depth = layers[-1].alpha_per_um * layers[-1].thickness_um
+    # beyond the last layer's critical angle nothing enters it (T = 0): the factor is 0 there
+    path = path * np.exp(-depth / np.where(cos_last > 0, cos_last, 1.0)) * (cos_last > 0)
     weight = law_density * path * w
     count = band.node_count(layers)
     value = float(weight @ thinfilm.band_transmittance(layers, theta, band, count))

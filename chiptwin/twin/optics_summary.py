@@ -15,8 +15,9 @@ Three parts, each cheap (one site, at most a :data:`WINDOW` × :data:`WINDOW` wi
   layers directly on the diodes;
 * **thin films** (a stack with inner layers of at most ``optics.thin_film_um``): which layers
   are crossed coherently, over which band, and the share of the emitted light reaching the
-  diode plane with them coherent against the same stack traced as rays alone
-  (``thin_film_um = 0``), at the ``psf`` level under the scenario's emitter law.
+  diode plane (a faceplate's acceptance and open area aside) with them coherent against the
+  same stack traced as rays alone (``thin_film_um = 0``), at the ``psf`` level under the
+  scenario's emitter law.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ import numpy as np
 
 from chiptwin import optics
 from chiptwin.config import Scenario
+from chiptwin.optics.profile import build_profile
 from chiptwin.optics.stack_psf import receiving_stack
 from chiptwin.twin import stages
 
@@ -74,18 +76,18 @@ def optics_figures(s: Scenario, coupling) -> dict[str, Any] | None:
 def thin_films(s: Scenario) -> dict[str, Any] | None:
     """The stack's thin films and what their coherence does to the plane fraction (None without
     films, or under the paper's one-medium convention, which ignores the stack)."""
-    stack = stages.optics_stack(s)
-    into_silicon = s.optics.silicon_n > 0
-    receiving = receiving_stack(stack, into_silicon=into_silicon)
+    fp = stages.optics_faceplate(s)
+    receiving = receiving_stack(stages.optics_stack(s), into_silicon=s.optics.silicon_n > 0,
+                                faceplate=fp)  # the psf level's stack, as coupling() builds it
     names = [layer for i, layer in enumerate(receiving.layers) if receiving.is_film(i)]
     if not names or s.optics.law == optics.LAMBERTIAN_NA2:
         return None
-    coherent = optics.plane_fraction_stack(stack, s.optics.law, into_silicon=into_silicon)
-    rays = optics.plane_fraction_stack(replace(stack, thin_film_um=0.0), s.optics.law,
-                                       into_silicon=into_silicon)
+    na = fp.na if fp is not None else None
+    coherent = build_profile(receiving, s.optics.law, na=na).total
+    rays = build_profile(replace(receiving, thin_film_um=0.0), s.optics.law, na=na).total
     return {"films": [{"name": f.name, "n": f.n, "thickness_um": f.thickness_um}
                       for f in names],
-            "band_nm": {"peak": stack.band.peak_nm, "fwhm": stack.band.fwhm_nm},
+            "band_nm": {"peak": receiving.band.peak_nm, "fwhm": receiving.band.fwhm_nm},
             "plane_fraction": {"coherent": _r(coherent), "rays_only": _r(rays)},
             "change_rel": _r(coherent / rays - 1.0) if rays > 0 else None}
 
