@@ -171,6 +171,8 @@ def trace_chunk(
     stack's layer count).
     """
     n_layers = n_layer.size
+    if layer_code.size != n_layers or film_of.size != n_layers:  # numba checks no bounds
+        raise ValueError("trace_chunk: layer_code and film_of need one entry a ray layer")
     n_pix = n_rows * n_cols
     has_films = film_tab.shape[0] > 0
     for k in range(out.size):

@@ -256,11 +256,20 @@ def test_every_ray_ends_once():
     codes = _k.empty_codes(5000)
     n, bottom, top, alpha = (np.array([1.33, 1.5]), np.array([2.0, 0.0]), np.array([3.0, 2.0]),
                              np.array([0.1, 0.0]))
-    films = _stack_arrays(Stack((Layer("w", 1.33, 1.0), Layer("g", 1.5, 2.0))), 4.3)[4:]
+    # the same two layers as ray layers (a 2 µm glass over silicon would be a thin film, one
+    # ray layer fewer than n above: numba does not check the bounds the kernel then overruns)
+    films = _stack_arrays(Stack((Layer("w", 1.33, 1.0), Layer("g", 1.5, 2.0)),
+                                thin_film_um=0.0), 4.3)[4:]
+    assert films[0].size == n.size
     _k.trace_chunk(np.random.default_rng(0), codes, 5.0, 5.0, _k.FOOT_POINT, 0.0,
                    _k.EMIT_ISOTROPIC, _k.POL_S, n, bottom, top, alpha, 4.3, _k.WALLS_NONE, 0.0,
                    1, 1, 10.0, 4.0, 4.0, 100, *films, 2)
     assert codes.min() >= 0 and codes.max() < 1 + _k.LAYER + 2
+    one_ray_layer = _stack_arrays(Stack((Layer("w", 1.33, 1.0), Layer("g", 1.5, 2.0))), 4.3)[4:]
+    with pytest.raises(ValueError, match="one entry a ray layer"):  # not an overrun
+        _k.trace_chunk(np.random.default_rng(0), codes, 5.0, 5.0, _k.FOOT_POINT, 0.0,
+                       _k.EMIT_ISOTROPIC, _k.POL_S, n, bottom, top, alpha, 4.3, _k.WALLS_NONE,
+                       0.0, 1, 1, 10.0, 4.0, 4.0, 100, *one_ray_layer, 2)
 
 
 def test_same_seed_same_bits_any_workers():
