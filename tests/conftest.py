@@ -140,6 +140,7 @@ SLOW = {
     "tests/config/test_budget.py::test_footprint_limit_converges",
     "tests/config/test_budget.py::test_charge_bound_is_above_every_pixel_frame",
     "tests/config/test_cost.py::test_the_as_built_estimate_is_within_its_factor",
+    "tests/config/test_cost.py::test_thin_films_are_costed_within_the_factor",
     "tests/config/test_study_mutations.py::"
     "test_every_mutation_loads_or_is_refused_with_file_key_and_allowed",
     "tests/config/test_mutations.py::test_valid_mutation_runs_shortened_or_exits_2_writing_nothing",

@@ -189,27 +189,37 @@ def max_coupling(s: Scenario) -> float:
     return optics.plane_fraction(o.closed_form_convention) * o.transmission
 
 
-def _film_table_bytes(s: Scenario) -> int:
-    """An upper bound of the raytrace level's film tables (``chiptwin.optics.raytrace``): every
-    inner layer of at most ``optics.thin_film_um`` its own group, each with the band nodes all of
-    them would ask together, 2 directions × 2 polarisations × R|T × ``FILM_COS_NODES`` float64,
-    plus the transfer matrices' ≈ 32 complex temporaries of ``thinfilm.CHUNK`` values. 0 below
-    the raytrace level or without films. Measured: 12.7 MiB traced for 0.1 µm of nitride, 75 MiB
-    for 10 µm of index 4.5 (874 wavelengths)."""
+def film_bound(s: Scenario) -> tuple[int, int]:
+    """At most how many thin-film groups the scene's stack has, and the band's wavelength nodes
+    they ask together (``chiptwin.optics.layers.Stack.ray_path``, ``Band.node_count``): every
+    layer below the first of at most ``optics.thin_film_um`` counted as its own group (the last
+    is one only over the silicon or a faceplate's core). ``(0, 0)`` without films."""
     o = s.optics
-    if s.run.fidelity.optics != "raytrace" or not o.layers or o.thin_film_um <= 0:
-        return 0
+    if not o.layers or o.thin_film_um <= 0 or o.law == "lambertian_na2":
+        return 0, 0
     from chiptwin.optics.layers import Band, Layer
-    from chiptwin.optics.raytrace import FILM_COS_NODES
-    from chiptwin.optics.thinfilm import CHUNK
 
     films = [Layer("film", float(t["n"]), float(t["thickness_um"]))
              for t in o.layers[1:] if float(t["thickness_um"]) <= o.thin_film_um]
     if not films:
-        return 0
+        return 0, 0
     edge = Layer("edge", 1.0, 0.0)
-    nodes = Band(o.wavelength_nm, o.band_fwhm_nm).node_count((edge, *films, edge))
-    return len(films) * 8 * nodes * FILM_COS_NODES * 8 + 32 * CHUNK * 16
+    return len(films), Band(o.wavelength_nm, o.band_fwhm_nm).node_count((edge, *films, edge))
+
+
+def _film_table_bytes(s: Scenario) -> int:
+    """An upper bound of the raytrace level's film tables (``chiptwin.optics.raytrace``):
+    :func:`film_bound`'s groups and nodes, 2 directions × 2 polarisations × R|T ×
+    ``FILM_COS_NODES`` float64, plus the transfer matrices' ≈ 32 complex temporaries of
+    ``thinfilm.CHUNK`` values. 0 below the raytrace level or without films. Measured: 12.7 MiB
+    traced for 0.1 µm of nitride, 75 MiB for 10 µm of index 4.5 (874 wavelengths)."""
+    groups, nodes = film_bound(s)
+    if s.run.fidelity.optics != "raytrace" or not groups:
+        return 0
+    from chiptwin.optics.raytrace import FILM_COS_NODES
+    from chiptwin.optics.thinfilm import CHUNK
+
+    return groups * 8 * nodes * FILM_COS_NODES * 8 + 32 * CHUNK * 16
 
 
 def raytrace_rays_estimate(s: Scenario) -> float:
