@@ -100,11 +100,12 @@ AS_BUILT_CODE_S: float = 2.9e-8
 #: pixel stage's 6.1 s over 2 passes × 48 nodes × 172,032 pixel-frames, one run).
 AS_BUILT_END_S: float = 3.5e-7
 #: Per angle, wavelength, polarisation and film group of a profile through thin films
-#: (``thinfilm.band_product``), and the profiles a run builds (the coupling, the emitter laws'
-#: shares, the thin-film figures: 4 counted in pyro_1fmol with 0.1 µm of nitride). Unit: s
-#: (0.52 s over 36,864 angles × 33 wavelengths × 2, 14 s with 874 wavelengths).
+#: (``thinfilm.band_product``), and the distinct profiles a run builds (``build_profile`` keeps
+#: them: the coupling's law, the other law's share, the thin-film figure's rays alone; 3 in
+#: pyro_1fmol with 0.1 µm of nitride, a 1.25 s run). Unit: s (0.52 s over 36,864 angles × 33
+#: wavelengths × 2, 14 s with 874 wavelengths).
 FILM_ELEMENT_S: float = 2.1e-7
-FILM_PROFILES: int = 4
+FILM_PROFILES: int = 3
 FILM_PROFILE_ANGLES: int = 36_864
 #: The factor within which the estimate is held of measured wall time (tests/config/test_cost.py).
 ESTIMATE_FACTOR: float = 10.0
