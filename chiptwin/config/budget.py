@@ -192,15 +192,19 @@ def max_coupling(s: Scenario) -> float:
 def film_bound(s: Scenario) -> tuple[int, int]:
     """At most how many thin-film groups the scene's stack has, and the band's wavelength nodes
     they ask together (``chiptwin.optics.layers.Stack.ray_path``, ``Band.node_count``): every
-    layer below the first of at most ``optics.thin_film_um`` counted as its own group (the last
-    is one only over the silicon or a faceplate's core). ``(0, 0)`` without films."""
+    layer below the first of at most ``optics.thin_film_um`` counted as its own group, the last
+    only where an interface lies below it (the silicon, ``optics.silicon_n > 0``, or a
+    faceplate's cores, ``core_n``), as ``chiptwin.optics.stack_psf.receiving_stack`` makes it
+    inner. ``(0, 0)`` without films."""
     o = s.optics
-    if not o.layers or o.thin_film_um <= 0 or o.law == "lambertian_na2":
+    if not o.layers or o.thin_film_um <= 0:
         return 0, 0
     from chiptwin.optics.layers import Band, Layer
 
+    below = o.silicon_n > 0 or (o.faceplate.present and o.faceplate.core_n > 0)
+    inner = o.layers[1:] if below else o.layers[1:-1]
     films = [Layer("film", float(t["n"]), float(t["thickness_um"]))
-             for t in o.layers[1:] if float(t["thickness_um"]) <= o.thin_film_um]
+             for t in inner if float(t["thickness_um"]) <= o.thin_film_um]
     if not films:
         return 0, 0
     edge = Layer("edge", 1.0, 0.0)

@@ -100,10 +100,12 @@ AS_BUILT_CODE_S: float = 2.9e-8
 #: pixel stage's 6.1 s over 2 passes × 48 nodes × 172,032 pixel-frames, one run).
 AS_BUILT_END_S: float = 3.5e-7
 #: Per angle, wavelength, polarisation and film group of a profile through thin films
-#: (``thinfilm.band_product``), and the distinct profiles a run builds (``build_profile`` keeps
-#: them: the coupling's law, the other law's share, the thin-film figure's rays alone; 3 in
-#: pyro_1fmol with 0.1 µm of nitride, a 1.25 s run). Unit: s (0.52 s over 36,864 angles × 33
-#: wavelengths × 2, 14 s with 874 wavelengths).
+#: (``thinfilm.band_product``), and the distinct profiles a run builds through them
+#: (``build_profile`` keeps them): the summary's emitter-law shares, isotropic and lambertian,
+#: at every level and under every law of contact imaging; under a physical law the coupling
+#: shares one of them and the thin-film figure adds the stack as rays alone (3 in pyro_1fmol
+#: with 0.1 µm of nitride, a 1.25 s run); under ``lambertian_na2`` 2. Unit: s (0.52 s over
+#: 36,864 angles × 33 wavelengths × 2, 14 s with 874 wavelengths).
 FILM_ELEMENT_S: float = 2.1e-7
 FILM_PROFILES: int = 3
 FILM_PROFILE_ANGLES: int = 36_864
@@ -174,9 +176,10 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
     if c.adc.as_built_keys:
         terms.append(_as_built_term(s, frames * c.n_pixels))
     groups, nodes = film_bound(s)
-    if groups and s.run.fidelity.optics in ("psf", "raytrace", "auto"):
-        elements = FILM_PROFILES * FILM_PROFILE_ANGLES * nodes * 2 * groups
-        terms.append(CostTerm(f"{FILM_PROFILES} profiles through {groups} thin film(s): "
+    if groups and s.optics.coupling == "contact" and s.assay.kind != "flux":
+        profiles = FILM_PROFILES if s.optics.law != "lambertian_na2" else FILM_PROFILES - 1
+        elements = profiles * FILM_PROFILE_ANGLES * nodes * 2 * groups
+        terms.append(CostTerm(f"{profiles} profiles through {groups} thin film(s): "
                               f"{FILM_PROFILE_ANGLES} angles × {nodes} wavelengths × 2 × "
                               f"{FILM_ELEMENT_S:g} s", elements * FILM_ELEMENT_S,
                               "optics.layers, optics.thin_film_um, optics.band_fwhm_nm"))

@@ -127,7 +127,10 @@ def film_split(nodes: int, cos_c: float) -> int:
 
 
 def film_nodes(nodes: int, cos_c: float) -> np.ndarray:
-    """The incidence cosines of a film table's nodes (:func:`film_split`'s layout)."""
+    """The incidence cosines of a film table's nodes (:func:`film_split`'s layout; at least 5)."""
+    if nodes < 5:
+        raise ValueError(f"film table of {nodes} nodes: at least 5 (2 on either side of the "
+                         "critical cosine and the node on it)")
     split = film_split(nodes, cos_c)
     below = np.linspace(0.0, cos_c, split + 1)[:-1] if split else np.zeros(0)
     s = np.linspace(0.0, math.sqrt(1.0 - cos_c * cos_c), nodes - split)

@@ -312,4 +312,6 @@ def disc_profile(profile: RadialProfile, radius_um: float, *, atol: float) -> Ra
         cum = fine_cum
     if np.max(np.abs(fine_cum - cum)) > atol:
         raise ValueError(f"the disc footprint quadrature did not reach atol = {atol:g}")
+    for a in (rho, fine_cum, fine_dens):  # as build_profile's: one signature of the kernels
+        a.flags.writeable = False
     return RadialProfile(rho, fine_cum, fine_dens, profile.total, profile.bounded)
