@@ -367,6 +367,17 @@ class Quadrature:
     table: bool
 
 
+def as_built_white_lsb(s: Scenario) -> float:
+    """The white noise at the converter (read noise and comparator noise, rms): what dithers its
+    codes, and sets the series' harmonics or the quadrature's grid. Unit: LSB."""
+    from chiptwin.pixel.sensor import conversion_gain_uV_per_e
+
+    a, p = s.chip.adc, s.chip.pixel
+    per_lsb = (1.0 + a.gain_error) / ((a.v_max_V - a.v_min_V) / 2**a.bits)  # LSB per volt
+    cg_V = conversion_gain_uV_per_e(p.capacitance_fF) * 1e-6
+    return math.hypot(p.read_noise_e * cg_V * per_lsb, a.comparator_noise_total_lsb)
+
+
 def as_built_quadrature(s: Scenario) -> Quadrature | None:
     """The quadrature of ``s``'s converter as built, or None where none runs (no ``[chip.adc]``
     effect, or the sawtooth's series answers every pixel-frame). The quadrature when the converter
@@ -383,7 +394,7 @@ def as_built_quadrature(s: Scenario) -> Quadrature | None:
         return None
     per_lsb = (1.0 + a.gain_error) / ((a.v_max_V - a.v_min_V) / 2**a.bits)  # LSB per volt
     cg_V = conversion_gain_uV_per_e(p.capacitance_fF) * 1e-6
-    u = math.hypot(p.read_noise_e * cg_V * per_lsb, a.comparator_noise_total_lsb)
+    u = as_built_white_lsb(s)
     ktc = ktc_noise_e(p.capacitance_fF, p.temperature_C + ZERO_C_K) * cg_V * per_lsb
     dark = (p.pedestal_V - a.v_min_V) * per_lsb + a.offset_error_lsb
     table = AsBuilt.from_keys(a).shaped
