@@ -181,6 +181,13 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
             f"run.fidelity.photons, sites.at_pixels, {length}"))
     if c.adc.as_built_keys:
         terms.append(_as_built_term(s, frames * c.n_pixels))
+    if s.run.fidelity.auto_stages():  # calibrations not yet cached: the scene at the expected
+        expected = ps * PIXEL_SAMPLE_S["expected"]  # level once, its converter as built too
+        as_built = _as_built_term(s, frames * c.n_pixels).seconds if c.adc.as_built_keys else 0
+        terms.append(CostTerm("fidelity auto's calibration, uncached: the scene at the expected "
+                              "level (its pixel-samples and converter as built)",
+                              expected + as_built,
+                              "run.fidelity (auto), " + length + ", chip.rows × chip.cols"))
     groups, nodes = film_bound(s)
     if groups and s.optics.coupling == "contact" and s.assay.kind != "flux":
         profiles = FILM_PROFILES if s.optics.law != "lambertian_na2" else FILM_PROFILES - 1
