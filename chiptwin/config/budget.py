@@ -367,15 +367,24 @@ class Quadrature:
     table: bool
 
 
+def _lsb_per_volt(s: Scenario) -> float:
+    """A volt at the converter's input, in LSB (its gain error included)."""
+    a = s.chip.adc
+    return (1.0 + a.gain_error) / ((a.v_max_V - a.v_min_V) / 2**a.bits)
+
+
+def _lsb_per_electron(s: Scenario) -> float:
+    """A pixel electron at the converter, through the conversion gain and the gain error."""
+    from chiptwin.pixel.sensor import conversion_gain_uV_per_e
+
+    return conversion_gain_uV_per_e(s.chip.pixel.capacitance_fF) * 1e-6 * _lsb_per_volt(s)
+
+
 def as_built_white_lsb(s: Scenario) -> float:
     """The white noise at the converter (read noise and comparator noise, rms): what dithers its
     codes, and sets the series' harmonics or the quadrature's grid. Unit: LSB."""
-    from chiptwin.pixel.sensor import conversion_gain_uV_per_e
-
-    a, p = s.chip.adc, s.chip.pixel
-    per_lsb = (1.0 + a.gain_error) / ((a.v_max_V - a.v_min_V) / 2**a.bits)  # LSB per volt
-    cg_V = conversion_gain_uV_per_e(p.capacitance_fF) * 1e-6
-    return math.hypot(p.read_noise_e * cg_V * per_lsb, a.comparator_noise_total_lsb)
+    return math.hypot(s.chip.pixel.read_noise_e * _lsb_per_electron(s),
+                      s.chip.adc.comparator_noise_total_lsb)
 
 
 def as_built_quadrature(s: Scenario) -> Quadrature | None:
@@ -387,16 +396,14 @@ def as_built_quadrature(s: Scenario) -> Quadrature | None:
     the kTC's ratio to ``u`` (:func:`~chiptwin.pixel.expected_adc.node_count`)."""
     from chiptwin.pixel.converter import AsBuilt
     from chiptwin.pixel.expected_adc import SERIES_MIN_WHITE_LSB, node_count
-    from chiptwin.pixel.sensor import conversion_gain_uV_per_e, ktc_noise_e
+    from chiptwin.pixel.sensor import ktc_noise_e
 
     a, p = s.chip.adc, s.chip.pixel
     if not a.as_built_keys:
         return None
-    per_lsb = (1.0 + a.gain_error) / ((a.v_max_V - a.v_min_V) / 2**a.bits)  # LSB per volt
-    cg_V = conversion_gain_uV_per_e(p.capacitance_fF) * 1e-6
     u = as_built_white_lsb(s)
-    ktc = ktc_noise_e(p.capacitance_fF, p.temperature_C + ZERO_C_K) * cg_V * per_lsb
-    dark = (p.pedestal_V - a.v_min_V) * per_lsb + a.offset_error_lsb
+    ktc = ktc_noise_e(p.capacitance_fF, p.temperature_C + ZERO_C_K) * _lsb_per_electron(s)
+    dark = (p.pedestal_V - a.v_min_V) * _lsb_per_volt(s) + a.offset_error_lsb
     table = AsBuilt.from_keys(a).shaped
     if table or u < SERIES_MIN_WHITE_LSB or dark - 10.0 * (u + ktc) < 0.5:
         return Quadrature(node_count(ktc, u), u, table)

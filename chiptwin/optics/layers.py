@@ -42,6 +42,8 @@ PEAK_RANGE_NM: tuple[float, float] = (200.0, 1200.0)
 
 #: Wavelength nodes per fringe of the thickest layer, and most nodes over the band.
 _PER_FRINGE = 8
+#: The band is sampled over ±this many standard deviations of its Gaussian.
+_SIGMAS = 4.0
 MAX_NODES = (1 << 14) + 1
 
 
@@ -57,7 +59,7 @@ class Band:
                                      ("fwhm_nm", self.fwhm_nm, FWHM_RANGE_NM)):
             if not (math.isfinite(value) and lo <= value <= hi):
                 raise ValueError(f"emission band {key} = {value!r}, allowed [{lo}, {hi}] nm")
-        if self.peak_nm - 4.0 * self.sigma_nm < 100.0:
+        if self.peak_nm - _SIGMAS * self.sigma_nm < 100.0:
             raise ValueError(f"emission band {self.peak_nm!r} ± {self.fwhm_nm!r} nm FWHM reaches "
                              "below 100 nm: a narrower band or a longer peak")
 
@@ -73,7 +75,7 @@ class Band:
     def nodes(self, count: int) -> tuple[NDArray, NDArray]:
         """``count`` wavelengths (µm) evenly over ±4σ and their weights (trapezoid on the
         normalised Gaussian, summing to 1)."""
-        half = 4.0 * self.sigma_nm
+        half = _SIGMAS * self.sigma_nm
         lam_nm = np.linspace(self.peak_nm - half, self.peak_nm + half, count)
         w = np.exp(-0.5 * ((lam_nm - self.peak_nm) / self.sigma_nm) ** 2)
         w[[0, -1]] *= 0.5
@@ -84,12 +86,13 @@ class Band:
         stack's round trip ``2 Σ n d`` gives the shortest period in λ, ``λ²/(2 Σ n d)`` (at
         normal incidence; longer when oblique), :data:`_PER_FRINGE` nodes each, at least 33
         over the band, at most :data:`MAX_NODES`."""
-        lam_lo_um = (self.peak_nm - 4.0 * self.sigma_nm) * 1e-3
+        lam_lo_um = (self.peak_nm - _SIGMAS * self.sigma_nm) * 1e-3
         path = sum(2.0 * layer.n * layer.thickness_um for layer in layers[1:-1])
         if path == 0.0:
             return 33
         period_nm = lam_lo_um**2 / path * 1e3
-        return int(min(max(33, math.ceil(8 * self.sigma_nm / period_nm * _PER_FRINGE) + 1),
+        span_nm = 2.0 * _SIGMAS * self.sigma_nm
+        return int(min(max(33, math.ceil(span_nm / period_nm * _PER_FRINGE) + 1),
                        MAX_NODES))
 
 

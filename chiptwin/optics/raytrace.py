@@ -302,11 +302,10 @@ def _stack_arrays(stack: Stack, n_below: float) -> tuple:
         raise TypeError(f"stack = {stack!r}: must be a chiptwin.optics.layers.Stack")
     below = () if n_below == stack.layers[-1].n else (Layer("below", n_below, 0.0),)
     full = dataclasses.replace(stack, layers=stack.layers + below)
-    rays, films = full.ray_path()
-    if below:
-        rays = rays[:-1]
-    else:
-        films = (*films, ())
+    ends, films = full.ray_path()  # ends: the ray layers and the plane below when it is one
+    rays = ends[:-1] if below else ends
+    if not below:
+        films = (*films, ())  # nothing between the last layer and the plane below
     code = np.array([i for i in range(len(stack.layers)) if not full.is_film(i)], np.int64)
     thick = np.array([layer.thickness_um for layer in rays])
     bottom = np.cumsum(thick[::-1])[::-1] - thick
@@ -315,22 +314,23 @@ def _stack_arrays(stack: Stack, n_below: float) -> tuple:
         raise ValueError("the stack's height_um is 0: the site must lie above the diode plane")
     n = np.array([layer.n for layer in rays])
     alpha = np.array([layer.alpha_per_um for layer in rays])
-    return (n, bottom, top, alpha, code, *_film_tables(stack, rays, films, n_below, code))
+    return (n, bottom, top, alpha, code, *_film_tables(stack.band, ends, films, code))
 
 
-def _film_tables(stack: Stack, rays, films, n_below: float, code: NDArray) -> tuple:
-    """``film_of`` (per interface below each ray layer: its group or −1), the groups' tables
+def _film_tables(band, ends, films, code: NDArray) -> tuple:
+    """From the ray layers ``ends`` (and the plane below, when it is one) and the ``films``
+    below each ray layer: ``film_of`` (per interface below each ray layer: its group or −1),
+    the groups' tables
     ``(F, 2 directions, 2 polarisations, R|T, wavelengths, nodes)`` with each direction's
     critical cosine (the node layout) and outcome code, and the band's cumulative weights (all
     empty without films)."""
     groups = [k for k, f in enumerate(films) if f]
-    film_of = np.full(len(rays), -1, np.int64)
+    film_of = np.full(len(films), -1, np.int64)  # one entry a ray layer
     if not groups:
         return (film_of, np.zeros((0, 2, 2, 2, 1, 2)), np.zeros((0, 2)), np.zeros(0, np.int64),
                 np.ones(1))
-    full = [(rays[k], *films[k], rays[k + 1] if k + 1 < len(rays) else
-             Layer("below", n_below, 0.0)) for k in groups]
-    lam, weights = stack.band.nodes(max(stack.band.node_count(g) for g in full))
+    full = [(ends[k], *films[k], ends[k + 1]) for k in groups]
+    lam, weights = band.nodes(max(band.node_count(g) for g in full))
     tab = np.zeros((len(groups), 2, 2, 2, lam.size, FILM_COS_NODES))
     cos_c = np.zeros((len(groups), 2))
     film_code = np.zeros(len(groups), np.int64)
@@ -339,7 +339,7 @@ def _film_tables(stack: Stack, rays, films, n_below: float, code: NDArray) -> tu
         film_of[k] = f
         film_code[f] = code[k] + 1  # the group's first film, right below ray layer k
         for way, layers in enumerate((group, group[::-1])):
-            if way == 1 and k + 1 == len(rays):
+            if way == 1 and k + 1 == len(films):
                 continue  # nothing comes back up out of the plane below: the table is not read
             n_in, n_out = layers[0].n, layers[-1].n
             cos_c[f, way] = math.sqrt(1.0 - (n_out / n_in) ** 2) if n_out < n_in else 0.0

@@ -104,6 +104,14 @@ def _panel(lo: NDArray, hi: NDArray, n: int) -> tuple[NDArray, NDArray]:
     return 0.5 * (hi + lo)[:, None] + half * x[None, :], half * w[None, :]
 
 
+def _quarter_circle() -> tuple[NDArray, NDArray]:
+    """Angles over ``[0, π/2]`` and their weights, flat: 512 panels of 8 Gauss–Legendre nodes
+    (the plane fractions' quadrature in angle)."""
+    edges = np.linspace(0.0, np.pi / 2, 513)
+    theta, w = _panel(edges[:-1], edges[1:], 8)
+    return theta.ravel(), w.ravel()
+
+
 def _h(profile: RadialProfile, x: NDArray, y: NDArray, n: int) -> NDArray:
     """``H(x, y) = ∫₀^{asinh(y/x)} P(x cosh w)/cosh w dw`` for ``x, y > 0``; split at the
     profile's outer edge when it is bounded (a kink of ``P``); ``n`` Gauss–Legendre nodes a panel
@@ -373,11 +381,10 @@ def plane_fraction_stack(stack: Stack, emitter: str, *, into_silicon: bool = Fal
         raise ValueError(f"reflections = {reflections!r}: must be 'single', 'incoherent' or "
                          "'coherent'")
     n, _, _ = _arrays(layers)
-    edges = np.linspace(0.0, np.pi / 2, 513)
-    theta, w = _panel(edges[:-1], edges[1:], 8)
-    _, cos = _cosines(n, theta.ravel())
-    dp = _emission(n, theta.ravel(), cos[0], law) * _incoherent_weight(layers, theta.ravel())
-    return float(np.sum(dp.reshape(theta.shape) * w))
+    theta, w = _quarter_circle()
+    _, cos = _cosines(n, theta)
+    dp = _emission(n, theta, cos[0], law) * _incoherent_weight(layers, theta)
+    return float(dp @ w)
 
 
 def _coherent_fraction(layers: tuple[Layer, ...], law: str, band: thinfilm.Band,
@@ -386,9 +393,7 @@ def _coherent_fraction(layers: tuple[Layer, ...], law: str, band: thinfilm.Band,
     them: a ray the ray picture loses at a thin layer's critical angle may tunnel), times the
     band-averaged transfer-matrix transmittance, times Beer–Lambert along the first and the
     last layer."""
-    edges = np.linspace(0.0, np.pi / 2, 513)
-    theta, w = _panel(edges[:-1], edges[1:], 8)
-    theta, w = theta.ravel(), w.ravel()
+    theta, w = _quarter_circle()
     n0, n_last = layers[0].n, layers[-1].n
     cos0 = np.cos(theta)
     law_density = 0.5 * np.sin(theta) if law == ISOTROPIC_LAW else 2.0 * np.sin(theta) * cos0

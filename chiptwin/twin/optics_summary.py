@@ -76,11 +76,13 @@ def optics_figures(s: Scenario, coupling) -> dict[str, Any] | None:
 def thin_films(s: Scenario) -> dict[str, Any] | None:
     """The stack's thin films and what their coherence does to the plane fraction (None without
     films, or under the paper's one-medium convention, which ignores the stack)."""
+    if s.optics.law == optics.LAMBERTIAN_NA2:
+        return None
     fp = stages.optics_faceplate(s)
     receiving = receiving_stack(stages.optics_stack(s), into_silicon=s.optics.silicon_n > 0,
                                 faceplate=fp)  # the psf level's stack, as coupling() builds it
     names = [layer for i, layer in enumerate(receiving.layers) if receiving.is_film(i)]
-    if not names or s.optics.law == optics.LAMBERTIAN_NA2:
+    if not names:
         return None
     na = fp.na if fp is not None else None
     coherent = build_profile(receiving, s.optics.law, na=na).total
