@@ -266,6 +266,11 @@ class Converter:
     pixel_gain: NDArray[np.float64] | None = None
     pixel_offset_lsb: NDArray[np.float64] | None = None
     shape: tuple[int, ...] | None = None
+    #: ``(inl_max_lsb, inl_shape)`` when ``levels`` are one ramp's ideal transitions ``k + ½``
+    #: with exactly this smooth bow and nothing else (no DNL, no measured table; set by
+    #: :func:`build_converter`): the ``expected`` level's sawtooth series then runs on the bow's
+    #: inverse (:func:`bow_inverse`) instead of a quadrature over the table.
+    bow: tuple[float, str] | None = None
     #: ``(padded levels, LUT, base)`` made from ``levels`` on construction; :meth:`at` hands a
     #: subset of the pixels its parent's, which are not checked or made again.
     _tables: tuple | None = field(default=None, repr=False)
@@ -414,7 +419,7 @@ class Converter:
             table_of_pixel=rows[idx] if levels else None,
             pixel_gain=None if self.pixel_gain is None else gain[idx],
             pixel_offset_lsb=None if self.pixel_offset_lsb is None else offset[idx],
-            shape=(idx.size,), _tables=self._tables)
+            shape=(idx.size,), bow=self.bow, _tables=self._tables)
 
     def check_pixels(self, n_pixels: int, name: str = "converter") -> None:
         """Refuse a converter that is not ideal and describes another number of pixels."""
@@ -693,6 +698,8 @@ def build_converter(
         offsets = spec.offset_sigma_lsb * streams[1].standard_normal(n)
     if spec.gain_sigma > 0:
         gains = 1.0 + spec.gain_sigma * streams[2].standard_normal(n)
+    smooth = shaped and not table and spec.inl_max_lsb != 0.0 and levels.shape[0] == 1 \
+        and spec.dnl_rms_lsb == 0.0 and 2**n_bits > 2
     return Converter(
         n_bits,
         lo,
@@ -705,7 +712,43 @@ def build_converter(
         gains,
         offsets,
         shp,
+        bow=(float(spec.inl_max_lsb), spec.inl_shape) if smooth else None,
     )
+
+
+def _bow_terms(s: NDArray[np.float64], inl: float, shape: str, bits: int
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The bow's offset ``inl·b(u)`` and slope ``d/ds`` at ideal-code places ``s`` (LSB),
+    ``u = (s − ½)/(2^bits − 2)`` as :func:`_bow` places the ideal transitions ``k + ½``."""
+    span = 2.0**bits - 2.0
+    u = (s - 0.5) / span
+    if shape == "quadratic":
+        return inl * 4.0 * u * (1.0 - u), inl * 4.0 * (1.0 - 2.0 * u) / span
+    return (inl * u * (1 - u) * (1 - 2 * u) / _CUBIC_PEAK,
+            inl * (1.0 - 6.0 * u + 6.0 * u * u) / (_CUBIC_PEAK * span))
+
+
+def bow_curvature(inl: float, shape: str, bits: int) -> float:
+    """``max |T''|`` of the bow's map ``T(s) = s + inl·b(u)``, a bound on ``|φ''|·(1 + ε)`` of its
+    inverse (the slope stays within ``1 ± 4|inl|/span``). Unit: 1/LSB."""
+    span = 2.0**bits - 2.0
+    peak = 8.0 if shape == "quadratic" else 6.0 / _CUBIC_PEAK  # max |b''(u)|
+    return abs(inl) * peak / (span * span) / (1.0 - abs(inl) * _BOW_SLOPE[shape] / span) ** 3
+
+
+def bow_inverse(x: ArrayLike, inl: float, shape: str, bits: int
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``φ(x)`` and ``φ'(x)``: the inverse of the bow's map ``T(s) = s + inl·b(u)``, which takes
+    the ideal transitions ``k + ½`` to the bowed ones, so that a bowed converter's code of ``x``
+    is the ideal rounding of ``φ(x)`` (inside the range). Newton's method from ``s = x``: the
+    slope is within ``4|inl|/span`` of 1, so each step squares an error that starts at ≤ |inl|;
+    four steps reach rounding (2 LSB of bow at 13 bits: 2 → 1e-3 → 5e-10 → 1e-22). Unit: LSB."""
+    x = np.asarray(x, float)
+    s = x.copy()
+    for _ in range(4):
+        b, db = _bow_terms(s, inl, shape, bits)
+        s = s - (s + b - x) / (1.0 + db)
+    return s, 1.0 / (1.0 + _bow_terms(s, inl, shape, bits)[1])
 
 
 def resolve_converter(
