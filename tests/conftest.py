@@ -14,6 +14,11 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ROOT / "scenarios"
 
+#: ``--set`` overrides that take a scene built on the reference chip as built
+#: (chiptwin.config.reference_chip) back to the ideal converter, for tests written on it.
+IDEAL_ADC = ["chip.adc.comparator_noise_uV=0", "chip.adc.inl_max_lsb=0",
+             "chip.adc.dnl_rms_lsb=0", "chip.adc.offset_sigma_lsb=0", "chip.adc.gain_sigma=0"]
+
 SMALL = """
 [scenario]
 name = "small"

@@ -92,11 +92,12 @@ def characterize(s: Scenario | str | Path, protocol: Protocol | None = None,
     if datasheet_in is not None:
         params = json.loads(Path(datasheet_in).read_text(encoding="utf-8"))["parameters"]
         d.input_values = {k: v.get("value") for k, v in params.items() if isinstance(v, dict)}
-    meta = {"scenario": s.scenario.name, "source": s.source, "seed": s.scenario.seed,
+    # the file's name, not its path: a datasheet travels, the folder it was made in does not
+    meta = {"scenario": s.scenario.name, "source": Path(s.source).name, "seed": s.scenario.seed,
             "chiptwin_version": __version__,
             "wall_time_s": round(time.perf_counter() - t0, 6)}
     if datasheet_in is not None:
-        meta["datasheet_in"] = str(datasheet_in)
+        meta["datasheet_in"] = Path(datasheet_in).name
     return Characterization(d, meta)
 
 

@@ -250,6 +250,7 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
                      f"{d['lod_from_blank_spread_se_amol']:.2g} amol")
         rows.append(("limit of detection", text))
     rows += _optics_rows(summary.get("optics"))
+    rows += _assumption_rows(summary.get("assumptions"))
     c = summary.get("crosstalk", {})
     if c.get("before_db_median") is not None and c.get("after_db_median") is not None:
         rows.append(("cross-talk (median)", f"{c['before_db_median']:+.1f} dB before, "
@@ -292,6 +293,21 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
                      f"{e['bias_lsb']:.3g} LSB, SQNR {sqnr}"))
     rows += [("warning", w) for w in summary.get("warnings", [])]
     return rows
+
+
+def _assumption_rows(a: dict[str, Any] | None) -> list[tuple[str, str]]:
+    """Which unpublished chip parameters the run rests on: the reference set, or what differs."""
+    if not a:
+        return []
+    if a["as_reference"]:
+        return [("assumed chip parameters", f"the reference chip as built ({a['set']})")]
+    d = a["differ"]
+    if len(d) > 2:
+        return [("assumed chip parameters", f"{len(d)} of {a['n']} differ from {a['set']} "
+                 "(summary.json: assumptions)")]
+    return [("assumed chip parameters", f"{a['set']} but " + "; ".join(
+        f"{k.rsplit('.', 1)[-1]} {v['value']:.4g} (not {v['reference']:.4g})"
+        for k, v in d.items()))]
 
 
 def _optics_rows(o: dict[str, Any] | None) -> list[tuple[str, str]]:

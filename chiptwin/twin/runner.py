@@ -20,7 +20,7 @@ import numpy as np
 
 from chiptwin import __version__, pixel
 from chiptwin.chip import ChipRun, Recorder, Schedule, SteadyRun, simulate_chip, steady_run
-from chiptwin.config import Scenario, load_scenario
+from chiptwin.config import Scenario, load_scenario, reference_chip
 from chiptwin.config.consistency import check_consistency, scenario_warnings
 from chiptwin.constants import TICKS_PER_S
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
@@ -114,6 +114,7 @@ def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
         warnings=scenario_warnings(s),
         **(choice.summary() if choice else {}),
     )
+    summary["assumptions"] = reference_chip.stated(s)
     if s.run.carry_dark_pixels:
         applies = shortcuts.applies(s, s.run.fidelity.photons, out.pixels, False,
                                     frames_path is not None)

@@ -1,8 +1,10 @@
 """The three chips of the round trip, each characterised once per test session.
 
-* ``reference``: the bundled ``pyro_1fmol`` chip as configured (8 × 16 pixels, 13-bit ADC per
-  pixel over 1 V, 1 pF diode, 100 e⁻ read noise per sample = 0.13 LSB, CMS of M = 4): deep in the
-  quantisation regime.
+* ``reference``: the bundled ``pyro_1fmol`` chip with its converters made ideal (8 × 16 pixels,
+  13-bit ADC per pixel over 1 V, 1 pF diode, 100 e⁻ read noise per sample = 0.13 LSB, CMS of
+  M = 4): deep in the quantisation regime; the linear camera model the round trips check.
+* ``as_built``: the same chip as configured, its converters as built (comparator noise, INL,
+  mismatch: chiptwin.config.reference_chip): the bundled datasheet's chip.
 * ``adc10``: a 64 × 64 chip with a 10-bit ADC and 2 DN read noise per sample (10 fF node,
   61 e⁻/DN), M = 1.
 * ``ccd``: a cooled CCD-like chip, 64 × 64 pixels of 24 µm, −40 °C, 16-bit ADC, 10 e⁻ read noise,
@@ -18,8 +20,9 @@ import copy
 import pytest
 
 from chiptwin.characterize import characterize
+from chiptwin.config import load_scenario
 from chiptwin.config.load import read_toml, scenario_from_dict
-from tests.conftest import SCENARIOS
+from tests.conftest import IDEAL_ADC, SCENARIOS
 
 #: A flux scene (light given at the sensor plane) on a chip to be characterised: the bench
 #: replaces the light anyway, the sections only need to be a valid scenario.
@@ -55,10 +58,11 @@ CHIPS = {
 def chip_scenario(name: str, **adc):
     """The Scenario of one of the three chips; ``adc``: ``[chip.adc]`` keys set besides (a
     converter as built), with the chip's fixed pattern pinned (seed 5) for those."""
-    bundled = {"reference": "pyro_1fmol", "dark": "snr10_requirement"}
+    bundled = {"reference": ("pyro_1fmol", IDEAL_ADC), "as_built": ("pyro_1fmol", []),
+               "dark": ("snr10_requirement", [])}
     if name in bundled and not adc:
-        path = SCENARIOS / f"{bundled[name]}.toml"
-        return scenario_from_dict(read_toml(path), str(path))
+        file, sets = bundled[name]
+        return load_scenario(SCENARIOS / f"{file}.toml", sets)
     raw = copy.deepcopy(FLUX)
     raw["scenario"]["name"] = name
     raw["chip"] = copy.deepcopy(CHIPS[name])
