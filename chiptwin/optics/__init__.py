@@ -36,6 +36,7 @@ from chiptwin.optics.stack_psf import (
     coupling_stack,
     plane_fraction_stack,
 )
+from chiptwin.optics.top import Top, returned_fraction
 
 __all__ = [
     "APERTURES",
@@ -45,6 +46,7 @@ __all__ = [
     "Faceplate",
     "Layer",
     "Stack",
+    "Top",
     "collected_fractions",
     "coupling_stack",
     "plane_fraction_stack",
@@ -59,4 +61,5 @@ __all__ = [
     "pixel_centers_um",
     "plane_fraction",
     "point_rectangle_fraction",
+    "returned_fraction",
 ]
