@@ -292,6 +292,9 @@ def _build_profile(stack: Stack, law: str, na: float | None, n_nodes: int,
     end = math.pi / 2 if na is None or na >= n_m else math.asin(na / n_m)
     bounded = end < math.pi / 2 or not np.any(t[n == n_m] > 0)
     theta = np.linspace(0.0, end, n_nodes + 1)
+    if top is not None and _top.AIR_N < n_m * math.sin(end):
+        # a node on the top's critical angle (β = 1, air), where R turns as a square root
+        theta = np.union1d(theta, [math.asin(_top.AIR_N / n_m)])
     if not bounded:
         theta = theta[:-1]
     rho, dp, drho = _rays(stack, theta, law, top, part)

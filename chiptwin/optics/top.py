@@ -156,27 +156,24 @@ def image_offset_um(top: Top, n0: float, beta: NDArray) -> NDArray:
         return 2.0 * top.solution_depth_um * beta / (n0 * c0)
 
 
-def returned_fraction(top: Top, n0: float) -> float:
+def returned_fraction(top: Top, n0: float, nodes: int = 256) -> float:
     """Share of an isotropic emitter's light (into 4π) the top sends back down through the site
-    plane: ``½∫₀^{π/2} R(θ) sinθ dθ`` (Gauss–Legendre on 64 panels in θ₀, split at the critical
-    angles, where R turns)."""
+    plane: ``½∫₀^{π/2} R(θ₀) sinθ₀ dθ₀``. Beyond the critical angle into air (``n₀ sinθ₀ > 1``)
+    everything returns (TIR at the surface, or at the lid's upper face: the slab then returns
+    all), ``½cos θc``; inside it Gauss–Legendre (``nodes``) in the cosine in air, ``c_a``, in
+    which ``R`` is smooth (it turns as a square root in θ₀ at θc):
+    ``cos θ₀ = √(1 − (1 − c_a²)/n₀²)``, ``d cos θ₀ = c_a dc_a / (n₀² cos θ₀)``."""
     from chiptwin.optics.quadrature import gauss_legendre
 
-    cuts = {0.0, math.pi / 2}
-    for n in (AIR_N, top.lid_n if top.medium == "glass" else AIR_N):
-        if n < n0:
-            cuts.add(math.asin(n / n0))
-    edges = np.array(sorted(cuts))
-    x, w = gauss_legendre(16)
-    total = 0.0
-    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
-        sub = np.linspace(lo, hi, 65)
-        a, b = sub[:-1, None], sub[1:, None]
-        theta = (0.5 * (a + b) + 0.5 * (b - a) * x[None, :]).ravel()
-        weight = (0.5 * (b - a) * w[None, :]).ravel()
-        r = slab_reflectance(top, n0, n0 * np.sin(theta))
-        total += float(np.sum(0.5 * r * np.sin(theta) * weight))
-    return total
+    if not top.returns:
+        return 0.0
+    x, w = gauss_legendre(nodes)
+    c_air = 0.5 * (x + 1.0)
+    beta = np.sqrt(1.0 - c_air * c_air)
+    cos0 = np.sqrt(1.0 - (beta / n0) ** 2)
+    beyond = 0.5 * math.sqrt(max(0.0, 1.0 - (AIR_N / n0) ** 2))
+    inside = 0.5 * np.sum(slab_reflectance(top, n0, beta) * c_air / (n0 * n0 * cos0) * 0.5 * w)
+    return beyond + float(inside)
 
 
 __all__ = ["AIR_N", "MEDIA", "Top", "components", "image_offset_um", "reflectance",
