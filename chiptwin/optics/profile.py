@@ -175,7 +175,9 @@ class RadialProfile:
 
     ``rho_um`` (increasing, from 0), ``cum`` (``P`` at the nodes), ``dens`` (``dP/dρ``, per µm),
     ``total`` (``P(∞)``, the plane fraction) and ``bounded`` (True when no light lands beyond
-    ``rho_um[-1]``; else the residual ``total − cum[-1]`` falls off as ``(ρ_last/ρ)²``).
+    ``rho_um[-1]``; else the residual ``total − cum[-1]`` falls off as ``(ρ_last/ρ)²``);
+    ``kinks_um``: radii where ``dP/dρ`` turns as a square root (a top's critical angle), where
+    the disc footprint's quadrature splits.
     """
 
     rho_um: NDArray[np.float64]
@@ -183,6 +185,7 @@ class RadialProfile:
     dens: NDArray[np.float64]
     total: float
     bounded: bool
+    kinks_um: tuple[float, ...] = ()
 
     def cumulative(self, r: ArrayLike) -> NDArray[np.float64]:
         """``P(r)``: fraction of the emitted photons within ``r`` µm of the foot (no checks)."""
@@ -292,9 +295,11 @@ def _build_profile(stack: Stack, law: str, na: float | None, n_nodes: int,
     end = math.pi / 2 if na is None or na >= n_m else math.asin(na / n_m)
     bounded = end < math.pi / 2 or not np.any(t[n == n_m] > 0)
     theta = np.linspace(0.0, end, n_nodes + 1)
+    critical = None
     if top is not None and _top.AIR_N < n_m * math.sin(end):
         # a node on the top's critical angle (β = 1, air), where R turns as a square root
-        theta = np.union1d(theta, [math.asin(_top.AIR_N / n_m)])
+        critical = math.asin(_top.AIR_N / n_m)
+        theta = np.union1d(theta, [critical])
     if not bounded:
         theta = theta[:-1]
     rho, dp, drho = _rays(stack, theta, law, top, part)
@@ -307,7 +312,8 @@ def _build_profile(stack: Stack, law: str, na: float | None, n_nodes: int,
     arrays = [rho[keep], cum[keep], dens[keep]]
     for a in arrays:
         a.flags.writeable = False
-    return RadialProfile(*arrays, float(cum[-1] + tail), bounded)
+    kinks = () if critical is None else (float(rho[theta == critical][0]),)
+    return RadialProfile(*arrays, float(cum[-1] + tail), bounded, kinks)
 
 
 # --- a disc of uniform emission ------------------------------------------------------------------
@@ -319,12 +325,16 @@ def _disc_at(profile: RadialProfile, radius_um: float, rho: NDArray, n_tau: int)
     x, gw = gauss_legendre(n_tau)
     d = np.abs(rho - a)[:, None]
     m, h = 0.5 * (rho[:, None] + a + d), 0.5 * (rho[:, None] + a - d)
-    # split τ at the point profile's outer edge (a kink of P when it is bounded)
-    edge = profile.rho_um[-1] if profile.bounded else np.inf
+    # split τ at the point profile's outer edge (a kink of P when it is bounded) and its kinks
+    edges = [*sorted(profile.kinks_um), profile.rho_um[-1] if profile.bounded else np.inf]
+    splits = [np.zeros_like(m)]
     with np.errstate(invalid="ignore", divide="ignore"):
-        tau_k = np.nan_to_num(np.arccos(np.clip((m - edge) / h, -1.0, 1.0)), nan=np.pi)
+        for edge in edges:
+            splits.append(np.nan_to_num(np.arccos(np.clip((m - edge) / h, -1.0, 1.0)),
+                                        nan=np.pi))
+    splits.append(np.full_like(m, np.pi))
     cum, dens = 0.0, 0.0
-    for lo, hi in ((np.zeros_like(tau_k), tau_k), (tau_k, np.full_like(tau_k, np.pi))):
+    for lo, hi in zip(splits[:-1], splits[1:], strict=True):
         tau = 0.5 * (lo + hi) + 0.5 * (hi - lo) * x[None, :]
         w = 0.5 * (hi - lo) * gw[None, :]
         part = _disc_terms(profile, a, rho[:, None], d, m, h, tau, w)
