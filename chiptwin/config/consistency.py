@@ -442,13 +442,16 @@ def _raytrace_needs(s: Scenario) -> None:
               "computes exactly)")
     if s.assay.kind == "flux":  # light given at the sensor: nothing is traced
         return
-    from chiptwin.config.budget import raytrace_rays_estimate
+    from chiptwin.config.budget import TOP_RAY_COST, raytrace_rays_estimate
 
     rays = raytrace_rays_estimate(s)
-    if rays > RAYTRACE_MAX_RAYS:
+    cost = TOP_RAY_COST[o.top.medium]  # a ray under a top that returns light takes longer
+    if rays * cost > RAYTRACE_MAX_RAYS:
+        under = f" under the {o.top.medium} top, {cost:g}× a ray's time" if cost > 1 else ""
         _fail(s, "optics.raytrace_rel_error", o.raytrace_rel_error,
               f"asks ≈ {rays:.3g} rays of the raytrace level (sites × rays for this error on "
-              f"the own pixel), above {RAYTRACE_MAX_RAYS:g} (≈ 10 min): raise it, or use psf")
+              f"the own pixel){under}, above {RAYTRACE_MAX_RAYS:g} rays' time (≈ 10 min): "
+              "raise it, or use psf")
 
 
 def _timing(s: Scenario) -> None:

@@ -134,18 +134,19 @@ def law_shares(s: Scenario) -> dict[str, float]:
     """Share of a point site's light at the array's centre on all diodes of the window (the
     footprint moves a share collected over many diodes by far less than the laws differ),
     ``psf`` through the stack, per emitter law (``lambertian_na2`` only without a faceplate: it
-    is a one-medium convention, without the silicon's reflection); ``optics.transmission`` not
-    applied."""
+    is a one-medium convention, without the silicon's reflection and the top);
+    ``optics.transmission`` not applied. The physical laws see the scenario's top."""
     grid, _ = _centre(s)
     grid["site_radius_um"] = 0.0  # a point site: the footprint's convolution is 85 % of the cost
-    stack, fp = stages.optics_stack(s), stages.optics_faceplate(s)
+    stack, fp, top = stages.optics_stack(s), stages.optics_faceplate(s), stages.optics_top(s)
     out = {}
     for law in optics.EMITTERS:
         if fp is not None and law == optics.LAMBERTIAN_NA2:
             continue
+        physical = law != optics.LAMBERTIAN_NA2  # the convention is one medium: no top
         c = optics.coupling_stack(**grid, stack=stack, emitter=law, faceplate=fp,
-                                  into_silicon=s.optics.silicon_n > 0
-                                  and law != optics.LAMBERTIAN_NA2)
+                                  into_silicon=s.optics.silicon_n > 0 and physical,
+                                  top=top if physical else None)
         out[law] = float(c.sum())
     return out
 
@@ -153,14 +154,15 @@ def law_shares(s: Scenario) -> dict[str, float]:
 def faceplate_vs_direct(s: Scenario) -> dict[str, Any]:
     """Own pixel, cross-talk and collected share of a centre site at the ``psf`` level, with the
     faceplate and with the same layers directly on the diodes (the faceplate removed, the site
-    lower by its thickness), under the scenario's emitter law."""
+    lower by its thickness), under the scenario's emitter law and top."""
     grid, p = _centre(s)
     stack, fp = stages.optics_stack(s), stages.optics_faceplate(s)
     small = replace(s, chip=replace(s.chip, rows=grid["n_rows"], cols=grid["n_cols"]))
     out: dict[str, Any] = {"level": "psf", "emitter": s.optics.law,
                            "direct": "the same layers directly on the diodes"}
     for name, face in (("with", fp), ("without", None)):
-        c = optics.coupling_stack(**grid, stack=stack, emitter=s.optics.law, faceplate=face)
+        c = optics.coupling_stack(**grid, stack=stack, emitter=s.optics.law, faceplate=face,
+                                  top=stages.optics_top(s))
         out[name] = _own_and_neighbour(small, c[:, 0] * s.optics.transmission, p)
     w, wo = out["with"], out["without"]
     if w["own_pixel"] and wo["own_pixel"]:
