@@ -203,19 +203,16 @@ def _above(gen, x, y, dx, dy, c0, pol, n0, alpha0, top_kind, depth, lid_n, lid_t
            x_lo, x_hi, y_lo, y_hi, events):
     """A ray leaving the site plane upwards, until it comes back down into the well or ends
     (:func:`_top_return`). The walls' tops are the site plane and above it the solution (and a
-    lid) extend sideways without bound: a ray that comes down outside the well lands on a wall's
-    top face, absorbed (:data:`ON_WALL`) or, for mirror walls, reflected up again."""
-    while True:
-        fate, x, y, events = _top_return(gen, x, y, dx, dy, c0, pol, n0, alpha0, top_kind,
-                                         depth, lid_n, lid_t, events)
-        inside = x_lo <= x <= x_hi and y_lo <= y <= y_hi
-        if fate != BACK or walls == WALLS_NONE or inside:
-            return fate, x, y, events
-        if walls == WALLS_ABSORBING:
-            return ON_WALL, x, y, events
-        if events <= 0:
-            return SPENT, x, y, events
-        events -= 1
+    lid) extend sideways without bound: a ray that comes down outside the well lands on the wall
+    material's top face and is absorbed there (:data:`ON_WALL`), for mirror walls too (a mirror
+    top under a top that reflects by TIR would be a lossless guide: the light would travel
+    sideways until ``max_events``)."""
+    fate, x, y, events = _top_return(gen, x, y, dx, dy, c0, pol, n0, alpha0, top_kind, depth,
+                                     lid_n, lid_t, events)
+    inside = x_lo <= x <= x_hi and y_lo <= y <= y_hi
+    if fate == BACK and walls != WALLS_NONE and not inside:
+        return ON_WALL, x, y, events
+    return fate, x, y, events
 
 
 @NJIT

@@ -17,8 +17,9 @@ ends in exactly one place:
   reflected comes back down through the site plane and goes on through the stack as any ray
   (the multiple reflections between top and bottom follow, within ``max_events``). Well walls
   span the first layer up to the site plane; above it the solution and the lid extend sideways
-  without bound, and a ray coming down outside the well lands on the wall's top face (absorbed,
-  or for mirror walls reflected up again);
+  without bound, and a ray coming down outside the well lands on the wall material's top face
+  and is absorbed there (counted as **a wall**; for mirror walls too: a mirror top under a
+  surface that reflects by TIR would guide the light sideways without loss);
 * **a layer**: absorbed on its path through a layer (Beer–Lambert, ``alpha_per_um``);
 * **a wall**: absorbed by an absorbing well wall (a square well of side ``well_side_um`` centred
   on the site, its walls spanning the first layer from its lower interface up to the site plane);

@@ -244,3 +244,22 @@ def test_lower_index_lid_is_refused():
         build_profile(stack, "isotropic", top=lid, part=1)
     with pytest.raises(ValueError, match="lid_n"):
         _plane(stack, lid, 100)
+
+
+def test_returned_light_outside_the_well_lands_on_the_wall_tops():
+    """Walls span the first layer up to the site plane; above it the solution extends sideways.
+    A point site in a 4 µm absorbing well under an open top 50 µm up: a returned ray comes back
+    inside the well only within 2·50·tanθ₀ ≤ 2 µm (θ₀ < 1.2°, 2e-6 of the light), so the walls'
+    share grows by the returned share, 0.34233, within 4 SE. The wall material's top absorbs for
+    mirror walls too (a mirror top under TIR would guide the light sideways without loss)."""
+    stack = Stack((Layer("water", WATER, 1.0),), silicon_n=WATER)
+    n = 200_000
+    bare = _plane(stack, None, n, well_side_um=4.0)
+    top = _plane(stack, Top("air", 50.0), n, well_side_um=4.0)
+    gained = float(top.absorbed_walls[0] - bare.absorbed_walls[0])
+    expected = returned_fraction(Top("air", 50.0), WATER)
+    se = math.sqrt(expected * (1 - expected) / n + 2 * 0.2 * 0.8 / n)  # two runs' errors
+    assert abs(gained - expected) <= SIGMAS * se, (gained, expected, se)
+    mirror = _plane(stack, Top("air", 50.0), n, well_side_um=4.0, walls="reflecting")
+    assert mirror.truncated[0] < 1e-4  # grazing rays between the well's mirrors, as without a top
+    _within(float(mirror.absorbed_walls[0]), expected, n)
