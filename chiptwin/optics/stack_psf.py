@@ -23,6 +23,11 @@ four corners, as in the closed form. A disc footprint convolves the profile firs
 (:func:`chiptwin.optics.profile.disc_profile`); a square footprint and the faceplate's box blur are
 averaged over Gauss–Legendre nodes. Node counts double until two levels agree within
 ``rtol × plane fraction`` (the same contract as ``coupling_psf``).
+
+The site's top surface (``top``, :mod:`chiptwin.optics.top`): the light it returns is one more
+profile per part (air: one; a lid: its front face, and through the lid), an image source single
+reflection (:func:`chiptwin.optics.profile.build_profile`), summed with the direct light's
+coupling; each part converges within its share of the tolerance.
 """
 
 from __future__ import annotations
