@@ -171,19 +171,20 @@ def faceplate_vs_direct(s: Scenario) -> dict[str, Any]:
 
 
 def top_figures(s: Scenario) -> dict[str, Any]:
-    """The top surface: its geometry, the share of an isotropic emitter's light it returns
-    downwards (``returned_share``; ``tir_share`` the part beyond the critical angle into air),
-    and a centre site's own pixel, cross-talk and collected share at the ``psf`` level with the
-    top and without it, under the scenario's emitter law (a Lambertian emitter facing the
-    diodes sends nothing up: the two agree)."""
+    """The top surface: its geometry, the share of the site's light it returns downwards
+    through the site plane (``returned_share``; ``tir_share`` the part beyond the critical angle
+    into air, returned by TIR) under the scenario's emitter law (an isotropic emitter's; 0 for a
+    Lambertian emitter facing the diodes, which sends nothing up), and a centre site's own
+    pixel, cross-talk and collected share at the ``psf`` level with the top and without it."""
     top, stack = stages.optics_top(s), stages.optics_stack(s)
     n0 = stack.layers[0].n
     out: dict[str, Any] = {"medium": top.medium, "solution_depth_um": top.solution_depth_um,
                            "solution_n": n0}
     if top.medium == "glass":
         out.update(lid_n=top.lid_n, lid_thickness_um=top.lid_thickness_um)
-    out["returned_share"] = _r(optics.returned_fraction(top, n0))
-    out["tir_share"] = _r(0.5 * math.sqrt(max(0.0, 1.0 - (1.0 / n0) ** 2)))
+    up = s.optics.law == optics.ISOTROPIC  # the only law that sends light up
+    out["returned_share"] = _r(optics.returned_fraction(top, n0)) if up else 0.0
+    out["tir_share"] = _r(0.5 * math.sqrt(max(0.0, 1.0 - (1.0 / n0) ** 2))) if up else 0.0
     grid, p = _centre(s)
     small = replace(s, chip=replace(s.chip, rows=grid["n_rows"], cols=grid["n_cols"]))
     out.update(level="psf", emitter=s.optics.law)
