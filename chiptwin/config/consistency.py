@@ -273,6 +273,10 @@ def _top_levels(s: Scenario) -> None:
     """Where a top that returns light is modelled: contact imaging, a physical emitter law,
     the psf and raytrace levels."""
     o, medium = s.optics, s.optics.top.medium
+    if s.assay.kind == "flux":
+        _fail(s, "optics.top.medium", medium,
+              "light given at the sensor plane (assay kind \"flux\") crosses no optics: the top "
+              "would be ignored; remove [optics.top]")
     if o.coupling == "lens":
         _fail(s, "optics.top.medium", medium,
               "a top that returns light models contact imaging; with lens coupling the top is "

@@ -106,3 +106,11 @@ def test_a_top_costs_the_raytrace_level_more_rays_time():
         load_scenario("pyro_1fmol", [*sets, 'optics.top.medium="air"',
                                      "optics.top.solution_depth_um=50.0"])
     assert e.value.key == "optics.raytrace_rel_error"
+
+
+def test_light_given_at_the_sensor_refuses_a_top():
+    """A flux scene gives its light at the sensor plane: a top would be silently ignored."""
+    with pytest.raises(ScenarioError, match="crosses no optics") as e:
+        load_scenario("snr10_requirement", ['optics.top.medium="air"',
+                                            "optics.top.solution_depth_um=50.0"])
+    assert e.value.key == "optics.top.medium" and e.value.value == "air"
