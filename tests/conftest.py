@@ -182,6 +182,7 @@ SLOW = {
     "tests/optics/test_stack.py::test_cross_talk_falls_as_the_water_gap_shrinks",
     "tests/optics/test_thinfilm.py::test_a_thick_layer_averaged_over_the_band_is_the_incoherent_slab",
     "tests/optics/test_wiring.py::test_a_passivation_film_is_coherent_and_reported",
+    "tests/optics/test_top_wiring.py::test_jssc2006_faceplate_under_an_open_top_reports_it",
     "tests/optics/test_thinfilm.py::test_raytrace_crosses_films_both_ways_as_incoherent_tmm_says",
     "tests/optics/test_thinfilm.py::"
     "test_a_ray_at_a_films_critical_angle_and_a_first_layer_denser_than_the_last",

@@ -8,6 +8,7 @@ counts its samplers would be handed, the chip model's time span.
 from __future__ import annotations
 
 import re
+from dataclasses import MISSING
 
 import numpy as np
 
@@ -214,6 +215,81 @@ def _optics(s: Scenario) -> None:
     _optics_layers(s)
     _optics_stack_levels(s)
     _optics_band(s)
+    _optics_top(s)
+
+
+#: Ranges of ``[optics.top]`` once its medium needs the key (0 means "not given" in the schema).
+TOP_DEPTH_UM = (0.1, 1.0e4)
+LID_THICKNESS_UM = (1.0, 1.0e4)
+
+
+def _optics_top(s: Scenario) -> None:
+    """``[optics.top]``: each key where its medium uses it, and only there; a top that returns
+    light needs contact imaging, a physical emitter law and the psf or raytrace level."""
+    top = s.optics.top
+    key = "optics.top."
+    unused = [("solution_depth_um", top.solution_depth_um)] if not top.present else []
+    if top.medium != "glass":
+        unused += [("lid_thickness_um", top.lid_thickness_um), ("lid_n", top.lid_n)]
+    for name, value in unused:
+        if value:
+            _fail(s, key + name, value,
+                  f"is not used with optics.top.medium = {top.medium!r}: "
+                  + ("a lid's key, with medium = \"glass\" only" if name.startswith("lid")
+                     else "the solution continues above the site and nothing returns; set "
+                          "medium = \"air\" or \"glass\", or remove it"))
+    if not top.present:
+        return
+    lo, hi = TOP_DEPTH_UM
+    if not lo <= top.solution_depth_um <= hi:
+        _fail(s, key + "solution_depth_um", top.solution_depth_um or MISSING,
+              f"is required with optics.top.medium = {top.medium!r}: µm from the site plane up "
+              f"to the {'surface' if top.medium == 'air' else 'lid'}, in [{lo:g}, {hi:g}] (an "
+              "open drop 100 µm – a few mm, a flow cell's channel 50–500 µm)")
+    if top.medium == "glass":
+        _lid(s)
+    _top_levels(s)
+
+
+def _lid(s: Scenario) -> None:
+    top, key = s.optics.top, "optics.top."
+    lo, hi = LID_THICKNESS_UM
+    if not lo <= top.lid_thickness_um <= hi:
+        _fail(s, key + "lid_thickness_um", top.lid_thickness_um or MISSING,
+              f"a glass lid needs its thickness, in [{lo:g}, {hi:g}] µm (coverslips "
+              "80–250 µm, slides 1 mm)")
+    n0 = float(s.optics.layers[0]["n"]) if s.optics.layers else 1.33
+    if top.lid_n and not max(1.0, n0) <= top.lid_n:
+        _fail(s, key + "lid_n", top.lid_n,
+              f"must be 0 (glass, 1.5) or in [{n0:g}, 2.5]: at least the solution's index "
+              f"(optics.layers[0].n = {n0:g}); a lid of lower index is not modelled")
+    elif top.lid_index < n0:
+        _fail(s, key + "lid_n", top.lid_n,
+              f"0 means glass of index 1.5, below the solution's n = {n0:g}: give a lid_n ≥ "
+              f"{n0:g}")
+
+
+def _top_levels(s: Scenario) -> None:
+    """Where a top that returns light is modelled: contact imaging, a physical emitter law,
+    the psf and raytrace levels."""
+    o, medium = s.optics, s.optics.top.medium
+    if s.assay.kind == "flux":
+        _fail(s, "optics.top.medium", medium,
+              "light given at the sensor plane (assay kind \"flux\") crosses no optics: the top "
+              "would be ignored; remove [optics.top]")
+    if o.coupling == "lens":
+        _fail(s, "optics.top.medium", medium,
+              "a top that returns light models contact imaging; with lens coupling the top is "
+              "the sample's, use optics.transmission (or medium = \"solution\")")
+    if o.law == "lambertian_na2":
+        _fail(s, "optics.top.medium", medium,
+              "the paper's lambertian_na2 convention is one medium, all light going down: "
+              "with a top that returns light set optics.emitter = \"isotropic\" (or medium = "
+              "\"solution\")")
+    if s.run.fidelity.optics == "na2":
+        _fail(s, "run.fidelity.optics", "na2",
+              "na2 (the own diode's solid angle) has no model of the top surface; use psf or "
+              "raytrace (or optics.top.medium = \"solution\")")
 
 
 def _optics_band(s: Scenario) -> None:
@@ -370,13 +446,16 @@ def _raytrace_needs(s: Scenario) -> None:
               "computes exactly)")
     if s.assay.kind == "flux":  # light given at the sensor: nothing is traced
         return
-    from chiptwin.config.budget import raytrace_rays_estimate
+    from chiptwin.config.budget import TOP_RAY_COST, raytrace_rays_estimate
 
     rays = raytrace_rays_estimate(s)
-    if rays > RAYTRACE_MAX_RAYS:
+    cost = TOP_RAY_COST[o.top.medium]  # a ray under a top that returns light takes longer
+    if rays * cost > RAYTRACE_MAX_RAYS:
+        under = f" under the {o.top.medium} top, {cost:g}× a ray's time" if cost > 1 else ""
         _fail(s, "optics.raytrace_rel_error", o.raytrace_rel_error,
               f"asks ≈ {rays:.3g} rays of the raytrace level (sites × rays for this error on "
-              f"the own pixel), above {RAYTRACE_MAX_RAYS:g} (≈ 10 min): raise it, or use psf")
+              f"the own pixel){under}, above {RAYTRACE_MAX_RAYS:g} rays' time (≈ 10 min): "
+              "raise it, or use psf")
 
 
 def _timing(s: Scenario) -> None:

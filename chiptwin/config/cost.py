@@ -114,6 +114,10 @@ AS_BUILT_END_S: float = 3.5e-7
 #: 36,864 angles × 33 wavelengths × 2, 14 s with 874 wavelengths).
 FILM_ELEMENT_S: float = 2.1e-7
 FILM_PROFILES: int = 3
+#: Profiles a top that returns light adds through thin films: one per part of the returned light
+#: (air 1; a lid 2: its front face, and through it), built for the coupling and shared by the
+#: summary's figures (``chiptwin.optics.top.Top.parts``).
+TOP_PARTS: dict[str, int] = {"solution": 0, "air": 1, "glass": 2}
 FILM_PROFILE_ANGLES: int = 36_864
 #: The factor within which the estimate is held of measured wall time (tests/config/test_cost.py).
 ESTIMATE_FACTOR: float = 10.0
@@ -191,11 +195,13 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
     groups, nodes = film_bound(s)
     if groups and s.optics.coupling == "contact" and s.assay.kind != "flux":
         profiles = FILM_PROFILES if s.optics.law != "lambertian_na2" else FILM_PROFILES - 1
+        profiles += TOP_PARTS[s.optics.top.medium]
         elements = profiles * FILM_PROFILE_ANGLES * nodes * 2 * groups
         terms.append(CostTerm(f"{profiles} profiles through {groups} thin film(s): "
                               f"{FILM_PROFILE_ANGLES} angles × {nodes} wavelengths × 2 × "
                               f"{FILM_ELEMENT_S:g} s", elements * FILM_ELEMENT_S,
-                              "optics.layers, optics.thin_film_um, optics.band_fwhm_nm"))
+                              "optics.layers, optics.thin_film_um, optics.band_fwhm_nm, "
+                              "optics.top.medium"))
     if kinetics == "cascade":
         w = _windows(s)
         terms.append(CostTerm(f"the cascade's yield fit, {CASCADE_FIT_S:g} s, and {w} windows of "

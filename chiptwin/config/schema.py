@@ -179,6 +179,57 @@ class FaceplateSection:
         return self.na > 0.0
 
 
+TOP_MEDIA = ("solution", "air", "glass")
+"""What lies above the site's solution (chiptwin.optics.top): more of it, air, a glass lid."""
+
+#: A glass lid's index when ``lid_n`` is not given: soda-lime and borosilicate glass 1.47–1.52
+#: near 560 nm (crown glass ≈ 1.52, borosilicate ≈ 1.47; Hecht, *Optics*, ch. 3).
+LID_N_DEFAULT = 1.5
+
+
+@dataclass(frozen=True)
+class TopSection:
+    """``[optics.top]``: the site's top surface, what returns the light the site sends up.
+
+    ``"solution"`` (default): the solution continues far above the site (a deep flow cell, an
+    index-matched absorber): nothing returns, the twin as it was. ``"air"``: an open well, the
+    solution's free surface ``solution_depth_um`` above the site plane, air above (total
+    internal reflection beyond 48.75° from water). ``"glass"``: a lid of ``lid_n`` and
+    ``lid_thickness_um`` on the solution, air above it. The solution's index is the first
+    layer's (``optics.layers[0].n``, 1.33 without layers)."""
+
+    medium: str = param(
+        "solution", choices=TOP_MEDIA,
+        doc='"solution" = nothing returns (a deep flow cell); "air" = an open well; "glass" = a '
+            "lid with air above")
+    solution_depth_um: float = param(
+        0.0, lo=0.0, hi=1.0e4,
+        doc="µm from the site plane up to the free surface or the lid; required with air or "
+            "glass, in [0.1, 1e4]: 0.1 µm (a film of solution over the site) … 1 cm, deeper "
+            "than any drop; an open drop is 100 µm – a few mm, a flow cell's channel 50–500 µm; "
+            "0 = not given (with solution only)")
+    lid_thickness_um: float = param(
+        0.0, lo=0.0, hi=1.0e4,
+        doc="µm; the glass lid's thickness, required with glass and only there, in [1, 1e4]: "
+            "1 µm (a membrane) … 1 cm; coverslips 80–250 µm, slides 1 mm")
+    lid_n: float = param(
+        0.0, lo=0.0, hi=2.5,
+        doc=f"the lid's index, with glass only; 0 = {LID_N_DEFAULT:g} (soda-lime or "
+            "borosilicate glass, 1.47–1.52); else in [the solution's n, 2.5]: fused silica "
+            "1.46, PDMS 1.41, sapphire 1.77; a lid of lower index than the solution is not "
+            "modelled")
+
+    @property
+    def present(self) -> bool:
+        """True when the top returns light (``medium`` is not ``"solution"``)."""
+        return self.medium != "solution"
+
+    @property
+    def lid_index(self) -> float:
+        """The lid's index in force: ``lid_n``, else :data:`LID_N_DEFAULT`."""
+        return self.lid_n or LID_N_DEFAULT
+
+
 @dataclass(frozen=True)
 class Optics:
     """``[optics]``: how emitted light reaches the diodes (REFERENCE §2).
@@ -244,6 +295,7 @@ class Optics:
     well_side_um: float = param(0.0, lo=0.0, hi=LENGTH_MAX_UM,
                                 doc="µm; the well's side with walls; " + LENGTHS)
     faceplate: FaceplateSection = field(default_factory=FaceplateSection)
+    top: TopSection = field(default_factory=TopSection)
 
     @property
     def law(self) -> str:
@@ -258,9 +310,11 @@ class Optics:
 
     @property
     def stated_stack(self) -> bool:
-        """True when the scenario states more than one medium: layers, a faceplate or the
-        silicon's index (the psf level then goes through :func:`chiptwin.optics.coupling_stack`)."""
-        return bool(self.layers) or self.faceplate.present or self.silicon_n > 0.0
+        """True when the scenario states more than one medium: layers, a faceplate, the
+        silicon's index or a top that returns light (the psf level then goes through
+        :func:`chiptwin.optics.coupling_stack`)."""
+        return (bool(self.layers) or self.faceplate.present or self.silicon_n > 0.0
+                or self.top.present)
 
 
 @dataclass(frozen=True)

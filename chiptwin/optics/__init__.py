@@ -7,6 +7,9 @@ Levels (SPEC "optics"): ``na2`` (:func:`coupling_na2`, geometric collection effi
 spread) and ``psf`` (:func:`coupling_psf`, the irradiance integrated exactly over every diode and
 averaged over the site footprint, cross-talk included). Both take an emission ``convention`` by
 name (:data:`CONVENTIONS`): ``"lambertian_na2"`` (the paper's NA²) or ``"isotropic"``.
+Through a planar :class:`Stack` (:func:`coupling_stack`), with an optional fibre
+:class:`Faceplate` and the site's :class:`Top` surface (an open well or a lid returning the light
+the site sends up; :mod:`chiptwin.optics.top`).
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ from chiptwin.optics.stack_psf import (
     coupling_stack,
     plane_fraction_stack,
 )
+from chiptwin.optics.top import Top, returned_fraction
 
 __all__ = [
     "APERTURES",
@@ -45,6 +49,7 @@ __all__ = [
     "Faceplate",
     "Layer",
     "Stack",
+    "Top",
     "collected_fractions",
     "coupling_stack",
     "plane_fraction_stack",
@@ -59,4 +64,5 @@ __all__ = [
     "pixel_centers_um",
     "plane_fraction",
     "point_rectangle_fraction",
+    "returned_fraction",
 ]

@@ -7,7 +7,8 @@ below the last layer lies the silicon.
 
 Outcome codes (one per ray, so transmitted + reflected out + absorbed = emitted, ray by ray):
 ``0 … n_pixels−1`` the pixel whose diode absorbed the ray, then ``n_pixels +`` :data:`SILICON`
-(absorbed in silicon outside every diode), :data:`TOP` (left upwards through the site plane),
+(absorbed in silicon outside every diode), :data:`TOP` (left upwards: through the site plane,
+or out through the top surface when one is traced),
 :data:`WALL` (absorbed by a well wall), :data:`TRUNCATED` (still bouncing after ``max_events``
 interactions) and :data:`LAYER` ``+ i`` (absorbed in layer ``i``); with a fibre faceplate below
 the last layer, ``LAYER + n_layers`` (absorbed in the faceplate: outside its acceptance, or on the
@@ -29,6 +30,12 @@ POL_S, POL_P, POL_AVERAGE = 0, 1, 2
 """Fresnel reflectance used: s, p (one per ray, drawn at emission) or their mean at each hit."""
 
 EMIT_ISOTROPIC, EMIT_LAMBERTIAN = 0, 1
+TOP_NONE, TOP_AIR, TOP_GLASS = 0, 1, 2
+"""The site's top (:mod:`chiptwin.optics.top`): the solution continues (nothing returns), an
+open well's free surface under air, a glass lid with air above it."""
+BACK, OUT, SOLUTION, SPENT, ON_WALL = 0, 1, 2, 3, 4
+"""Fates of a trip above the site plane (:func:`_above`): back down through the site plane, out
+through the top, absorbed in the solution above the site, out of events, on a wall's top face."""
 FOOT_POINT, FOOT_DISC, FOOT_SQUARE = 0, 1, 2
 WALLS_NONE, WALLS_ABSORBING, WALLS_REFLECTING = 0, 1, 2
 
@@ -138,12 +145,84 @@ def film_nodes(nodes: int, cos_c: float) -> np.ndarray:
 
 
 @NJIT
+def _solution_leg(gen, depth, cos, alpha) -> bool:
+    """Whether a ray survives ``depth`` µm of solution at direction cosine ``cos``
+    (Beer–Lambert, a draw only when it absorbs)."""
+    if alpha <= 0.0:
+        return True
+    return -math.log(1.0 - gen.random()) / alpha >= depth / cos
+
+
+@NJIT
+def _top_return(gen, x, y, dx, dy, c0, pol, n0, alpha0, top_kind, depth, lid_n, lid_t, events):
+    """A ray going up through the site plane (direction ``(dx, dy, c0)``, ``c0 > 0``, in the
+    solution of index ``n0``): up ``depth`` µm to the top, where Fresnel (TIR included) sends it
+    out or back; in a lid of index ``lid_n`` and thickness ``lid_t`` it bounces between the
+    lid's faces until it leaves through one. Each interface is one of ``events``.
+
+    Returns ``(fate, x, y, events)``: :data:`BACK` (down through the site plane again at
+    ``(x, y)``, direction ``(dx, dy, −c0)``), :data:`OUT`, :data:`SOLUTION` or :data:`SPENT`.
+    """
+    if not _solution_leg(gen, depth, c0, alpha0):
+        return SOLUTION, x, y, events
+    x += dx * depth / c0
+    y += dy * depth / c0
+    if events <= 0:
+        return SPENT, x, y, events
+    events -= 1
+    if top_kind == TOP_AIR:
+        refl, _ = fresnel(n0, 1.0, c0, pol)
+        if gen.random() >= refl:
+            return OUT, x, y, events
+    else:
+        refl, cg = fresnel(n0, lid_n, c0, pol)
+        if gen.random() >= refl:  # into the lid: up and down until it leaves
+            step = lid_t / cg * n0 / lid_n  # lateral path per crossing, per unit of dx, dy
+            while True:
+                x += dx * step
+                y += dy * step
+                if events <= 0:
+                    return SPENT, x, y, events
+                events -= 1
+                if gen.random() >= fresnel(lid_n, 1.0, cg, pol)[0]:
+                    return OUT, x, y, events
+                x += dx * step
+                y += dy * step
+                if events <= 0:
+                    return SPENT, x, y, events
+                events -= 1
+                if gen.random() >= fresnel(lid_n, n0, cg, pol)[0]:
+                    break  # back into the solution, at c0 again (Snell's invariant)
+    if not _solution_leg(gen, depth, c0, alpha0):
+        return SOLUTION, x, y, events
+    return BACK, x + dx * depth / c0, y + dy * depth / c0, events
+
+
+@NJIT
+def _above(gen, x, y, dx, dy, c0, pol, n0, alpha0, top_kind, depth, lid_n, lid_t, walls,
+           x_lo, x_hi, y_lo, y_hi, events):
+    """A ray leaving the site plane upwards, until it comes back down into the well or ends
+    (:func:`_top_return`). The walls' tops are the site plane and above it the solution (and a
+    lid) extend sideways without bound: a ray that comes down outside the well lands on the wall
+    material's top face and is absorbed there (:data:`ON_WALL`), for mirror walls too (a mirror
+    top under a top that reflects by TIR would be a lossless guide: the light would travel
+    sideways until ``max_events``)."""
+    fate, x, y, events = _top_return(gen, x, y, dx, dy, c0, pol, n0, alpha0, top_kind, depth,
+                                     lid_n, lid_t, events)
+    inside = x_lo <= x <= x_hi and y_lo <= y <= y_hi
+    if fate == BACK and walls != WALLS_NONE and not inside:
+        return ON_WALL, x, y, events
+    return fate, x, y, events
+
+
+@NJIT
 def trace_chunk(
     gen, out, site_x, site_y, foot_shape, foot_size, emitter, pol_mode,
     n_layer, z_bottom, z_top, alpha, n_si, walls, well_half,
     n_rows, n_cols, pitch, half_w, half_h, max_events,
     layer_code, film_of, film_tab, film_cos_c, film_code, band_cdf, fp_layer,
     fp_na=0.0, fp_pitch=0.0, fp_open=1.0,
+    top_kind=TOP_NONE, top_depth=0.0, lid_n=1.0, lid_t=0.0,
 ):
     """Trace ``out.size`` rays from one site; write each ray's outcome code into ``out``.
 
@@ -172,6 +251,13 @@ def trace_chunk(
     group's first film: a group's absorption is not split between its films). Absorption in
     ray layer ``i`` is ``LAYER + layer_code[i]``, in the faceplate ``LAYER + fp_layer`` (the
     stack's layer count).
+
+    The top (``top_kind``, :data:`TOP_NONE` by default: a ray going up through the site plane
+    leaves, code :data:`TOP`, with no draw, so the streams without a top are unchanged): a ray
+    going up through the site plane crosses ``top_depth`` µm of the solution (index and
+    absorption of ray layer 0) to an open surface under air or a lid (``lid_n``, ``lid_t`` µm,
+    air above), leaves through it (:data:`TOP`) or comes back down and goes on through the
+    stack (:func:`_above`); absorption in the solution above the site is layer 0's.
     """
     n_layers = n_layer.size
     if layer_code.size != n_layers or film_of.size != n_layers:  # numba checks no bounds
@@ -202,14 +288,24 @@ def trace_chunk(
         lam = 0
         if has_films:
             lam = min(np.searchsorted(band_cdf, gen.random(), side="right"), band_cdf.size - 1)
-        if dz >= 0.0:
-            out[k] = n_pix + TOP
+        if dz >= 0.0 and (top_kind == TOP_NONE or dz == 0.0):
+            out[k] = n_pix + TOP  # (dz = 0, horizontal: it never reaches a top; p = 2⁻⁵³)
             continue
         x_lo, x_hi = site_x - well_half, site_x + well_half
         y_lo, y_hi = site_y - well_half, site_y + well_half
         i, z = 0, z_top[0]
         code = n_pix + TRUNCATED
-        for _ in range(max_events):
+        events = max_events
+        if dz > 0.0:
+            fate, x, y, events = _above(gen, x, y, dx, dy, dz, pol, n_layer[0], alpha[0],
+                                        top_kind, top_depth, lid_n, lid_t, walls, x_lo, x_hi,
+                                        y_lo, y_hi, events)
+            if fate != BACK:
+                out[k] = _fate_code(fate, n_pix, layer_code[0])
+                continue
+            dz = -dz
+        while events > 0:
+            events -= 1
             if dz < 0.0:
                 z_end = z_bottom[i]
             else:
@@ -238,8 +334,17 @@ def trace_chunk(
                 continue
             z = z_end
             if dz > 0.0 and i == 0:
-                code = n_pix + TOP
-                break
+                if top_kind == TOP_NONE:
+                    code = n_pix + TOP
+                    break
+                fate, x, y, events = _above(gen, x, y, dx, dy, dz, pol, n_layer[0], alpha[0],
+                                            top_kind, top_depth, lid_n, lid_t, walls, x_lo,
+                                            x_hi, y_lo, y_hi, events)
+                if fate != BACK:
+                    code = _fate_code(fate, n_pix, layer_code[0])
+                    break
+                dz = -dz
+                continue
             down = dz < 0.0
             if down:
                 n2 = n_si if i == n_layers - 1 else n_layer[i + 1]
@@ -286,6 +391,18 @@ def trace_chunk(
                 dz = cos_t
                 i -= 1
         out[k] = code
+
+
+@NJIT
+def _fate_code(fate, n_pix, solution_code) -> int:
+    """The outcome code of a trip above the site plane that did not come back."""
+    if fate == OUT:
+        return n_pix + TOP
+    if fate == SOLUTION:
+        return n_pix + LAYER + solution_code
+    if fate == ON_WALL:
+        return n_pix + WALL
+    return n_pix + TRUNCATED
 
 
 @NJIT

@@ -42,8 +42,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from chiptwin.optics import _profile_kernels as _kernels
 from chiptwin.optics import thinfilm
+from chiptwin.optics import top as _top
 from chiptwin.optics.layers import Layer, Stack
 from chiptwin.optics.quadrature import gauss_legendre
+from chiptwin.optics.top import Top
 
 ISOTROPIC_LAW: str = "isotropic"
 LAMBERTIAN_LAW: str = "lambertian"
@@ -106,10 +108,12 @@ def _emission(n: NDArray, theta_m: NDArray, cos0: NDArray, law: str) -> NDArray:
     return 2.0 * ratio * sc
 
 
-def _rays(stack: Stack, theta_m: NDArray, law: str):
+def _rays(stack: Stack, theta_m: NDArray, law: str, top: Top | None = None, part: int = 0):
     """Per ray (angle θₘ in the lowest-index ray layer): ``ρ``, ``dP/dθₘ``, ``dρ/dθₘ``, single
     pass; the thin films between two ray layers crossed in place, coherently
-    (:meth:`~chiptwin.optics.layers.Stack.ray_path`)."""
+    (:meth:`~chiptwin.optics.layers.Stack.ray_path`). With a ``top``, the rays of its
+    component ``part`` (:func:`chiptwin.optics.top.components`): emitted upwards, returned by the
+    top once, then down the same stack (:func:`_top_part`)."""
     layers, films = stack.ray_path()
     n, t, alpha = _arrays(layers)
     n_m = n.min()
@@ -139,8 +143,30 @@ def _rays(stack: Stack, theta_m: NDArray, law: str):
     if groups:  # the films' reflections as amplitudes; one wavelength meets every group
         gs, gp = thinfilm.band_product(groups, beta, stack.band)
         t_s, t_p = t_s * gs.reshape(beta.shape), t_p * gp.reshape(beta.shape)
+    if top is not None:
+        extra = _top_part(top, part, n[0], alpha[0], n_m, beta, cos[0], c_m)
+        rho, drho, optical_depth = rho + extra[0], drho + extra[1], optical_depth + extra[2]
+        t_s, t_p = t_s * extra[3], t_p * extra[4]
     weight = np.exp(-optical_depth) * 0.5 * (t_s + t_p)
     return rho, _emission(n, theta_m, cos[0], law) * weight, drho
+
+
+def _top_part(top: Top, part: int, n0: float, alpha0: float, n_m: float, beta: NDArray,
+              c0: NDArray, c_m: NDArray) -> tuple[NDArray, ...]:
+    """What the way up to the top and back adds to a ray of component ``part``: its lateral
+    path (``2·D·tanθ₀`` and the lid's offset) and that path's ``dρ/dθₘ``, the optical depth of
+    ``2·D`` of solution (it absorbs above the site as below), and ``Rₛ``, ``Rₚ``."""
+    rs, rp, shift = _top.components(top, n0, beta)[part]
+    depth = 2.0 * top.solution_depth_um
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = _top.image_offset_um(top, n0, beta) + shift
+        drho = depth * n_m * c_m / (n0 * c0**3)
+        if part == 1:  # through the lid: 2t·tanθ_g
+            cg = np.sqrt(np.clip(1.0 - (beta / top.lid_n) ** 2, 0.0, None))
+            drho = drho + np.where(cg > 0, 2.0 * top.lid_thickness_um * n_m * c_m
+                                   / (top.lid_n * np.where(cg > 0, cg, 1.0) ** 3), 0.0)
+        optical = alpha0 * depth / c0 if alpha0 > 0 else np.zeros_like(beta)
+    return rho, drho, optical, rs, rp
 
 
 @dataclass(frozen=True, eq=False)
@@ -149,7 +175,9 @@ class RadialProfile:
 
     ``rho_um`` (increasing, from 0), ``cum`` (``P`` at the nodes), ``dens`` (``dP/dρ``, per µm),
     ``total`` (``P(∞)``, the plane fraction) and ``bounded`` (True when no light lands beyond
-    ``rho_um[-1]``; else the residual ``total − cum[-1]`` falls off as ``(ρ_last/ρ)²``).
+    ``rho_um[-1]``; else the residual ``total − cum[-1]`` falls off as ``(ρ_last/ρ)²``);
+    ``kinks_um``: radii where ``dP/dρ`` turns as a square root (a top's critical angle), where
+    the disc footprint's quadrature splits.
     """
 
     rho_um: NDArray[np.float64]
@@ -157,6 +185,7 @@ class RadialProfile:
     dens: NDArray[np.float64]
     total: float
     bounded: bool
+    kinks_um: tuple[float, ...] = ()
 
     def cumulative(self, r: ArrayLike) -> NDArray[np.float64]:
         """``P(r)``: fraction of the emitted photons within ``r`` µm of the foot (no checks)."""
@@ -185,16 +214,18 @@ class RadialProfile:
                 *_kernels.guide(self.rho_um))
 
 
-def _node_integrals(stack: Stack, edges: NDArray, law: str) -> NDArray:
+def _node_integrals(stack: Stack, edges: NDArray, law: str, top: Top | None = None,
+                    part: int = 0) -> NDArray:
     """∫ dP/dθₘ over each interval between successive ``edges`` (8-point Gauss–Legendre)."""
     lo, hi = edges[:-1, None], edges[1:, None]
     theta = 0.5 * (lo + hi) + 0.5 * (hi - lo) * _GL_X[None, :]
-    _, dp, _ = _rays(stack, theta.ravel(), law)
+    _, dp, _ = _rays(stack, theta.ravel(), law, top, part)
     return (dp.reshape(theta.shape) @ _GL_W) * 0.5 * (hi - lo)[:, 0]
 
 
 def build_profile(stack: Stack, law: str, *, na: float | None = None,
-                  n_nodes: int = N_NODES) -> RadialProfile:
+                  n_nodes: int = N_NODES, top: Top | None = None,
+                  part: int = 0) -> RadialProfile:
     """Tabulate ``P(ρ)`` for a unit point source emitting with ``law`` in the stack's first layer.
 
     Parameters
@@ -208,6 +239,13 @@ def build_profile(stack: Stack, law: str, *, na: float | None = None,
         Keep only rays with Snell's invariant ``n·sinθ <= na`` (a fibre faceplate's acceptance).
     n_nodes : int
         Table size (default :data:`N_NODES`).
+    top, part : Top, int, optional
+        The profile of the light the site's ``top`` returns (its component ``part`` of
+        :func:`chiptwin.optics.top.components`; isotropic law only: a Lambertian emitter facing
+        the diodes sends nothing up), instead of the direct light: single reflection, each ray
+        emitted upwards at θ₀ weighted by the top's ``Rₛ``/``Rₚ`` and moved ``2·D·tanθ₀`` (an
+        image source ``2·D`` above the site) plus the lid's offset, then down the stack as a
+        direct ray. Light the silicon reflects back up to the top is left out (single pass).
 
     Returns
     -------
@@ -220,7 +258,26 @@ def build_profile(stack: Stack, law: str, *, na: float | None = None,
         raise ValueError(f"law = {law!r} is unknown: must be one of {LAWS}")
     if not stack.height_um > 0:
         raise ValueError(f"stack height_um = {stack.height_um!r}: must be > 0")
-    return _build_profile(stack, law, None if na is None else float(na), int(n_nodes))
+    if top is not None:
+        _check_top(stack, law, top, part)
+    return _build_profile(stack, law, None if na is None else float(na), int(n_nodes), top,
+                          int(part))
+
+
+def _check_top(stack: Stack, law: str, top: Top, part: int) -> None:
+    if not isinstance(top, Top):
+        raise TypeError(f"top = {top!r}: must be a chiptwin.optics.top.Top")
+    if not top.returns:
+        raise ValueError(f"top medium {top.medium!r} returns nothing: no profile to build")
+    if law != ISOTROPIC_LAW:
+        raise ValueError(f"law = {law!r} with a top: a Lambertian emitter facing the diodes "
+                         "sends nothing up; the top returns light of the isotropic law only")
+    if not 0 <= part < top.parts:
+        raise ValueError(f"part = {part!r}: the {top.medium} top has {top.parts} part(s)")
+    n0 = stack.layers[0].n
+    if top.medium == "glass" and top.lid_n < n0:
+        raise ValueError(f"lid_n = {top.lid_n!r} below the solution's n = {n0!r}: a lid of "
+                         "lower index than the solution is not modelled")
 
 
 #: Profiles :func:`build_profile` keeps (a few hundred kB each).
@@ -228,24 +285,35 @@ PROFILE_CACHE: int = 16
 
 
 @functools.lru_cache(maxsize=PROFILE_CACHE)
-def _build_profile(stack: Stack, law: str, na: float | None, n_nodes: int) -> RadialProfile:
+def _build_profile(stack: Stack, law: str, na: float | None, n_nodes: int,
+                   top: Top | None = None, part: int = 0) -> RadialProfile:
     n, t, _ = _arrays(stack.ray_path()[0])
+    if top is not None:  # the way up and back runs in the solution, the first layer's index
+        t = t.copy()
+        t[0] += 2.0 * top.solution_depth_um
     n_m = float(n.min())
-    top = math.pi / 2 if na is None or na >= n_m else math.asin(na / n_m)
-    bounded = top < math.pi / 2 or not np.any(t[n == n_m] > 0)
-    theta = np.linspace(0.0, top, n_nodes + 1)
+    end = math.pi / 2 if na is None or na >= n_m else math.asin(na / n_m)
+    bounded = end < math.pi / 2 or not np.any(t[n == n_m] > 0)
+    theta = np.linspace(0.0, end, n_nodes + 1)
+    critical = None
+    if top is not None and _top.AIR_N < n_m * math.sin(end):
+        # a node on the top's critical angle (β = 1, air), where R turns as a square root
+        critical = math.asin(_top.AIR_N / n_m)
+        theta = np.union1d(theta, [critical])
     if not bounded:
         theta = theta[:-1]
-    rho, dp, drho = _rays(stack, theta, law)
+    rho, dp, drho = _rays(stack, theta, law, top, part)
     with np.errstate(invalid="ignore", divide="ignore"):
         dens = np.nan_to_num(dp / drho)
-    cum = np.concatenate([[0.0], np.cumsum(_node_integrals(stack, theta, law))])
-    tail = 0.0 if bounded else float(_node_integrals(stack, np.array([theta[-1], top]), law)[0])
+    cum = np.concatenate([[0.0], np.cumsum(_node_integrals(stack, theta, law, top, part))])
+    tail = 0.0 if bounded else float(_node_integrals(stack, np.array([theta[-1], end]), law,
+                                                     top, part)[0])
     keep = np.concatenate([[True], np.diff(rho) > 0])  # zero-thickness tops: drop repeated ρ
     arrays = [rho[keep], cum[keep], dens[keep]]
     for a in arrays:
         a.flags.writeable = False
-    return RadialProfile(*arrays, float(cum[-1] + tail), bounded)
+    kinks = () if critical is None else (float(rho[theta == critical][0]),)
+    return RadialProfile(*arrays, float(cum[-1] + tail), bounded, kinks)
 
 
 # --- a disc of uniform emission ------------------------------------------------------------------
@@ -257,12 +325,16 @@ def _disc_at(profile: RadialProfile, radius_um: float, rho: NDArray, n_tau: int)
     x, gw = gauss_legendre(n_tau)
     d = np.abs(rho - a)[:, None]
     m, h = 0.5 * (rho[:, None] + a + d), 0.5 * (rho[:, None] + a - d)
-    # split τ at the point profile's outer edge (a kink of P when it is bounded)
-    edge = profile.rho_um[-1] if profile.bounded else np.inf
+    # split τ at the point profile's outer edge (a kink of P when it is bounded) and its kinks
+    edges = [*sorted(profile.kinks_um), profile.rho_um[-1] if profile.bounded else np.inf]
+    splits = [np.zeros_like(m)]
     with np.errstate(invalid="ignore", divide="ignore"):
-        tau_k = np.nan_to_num(np.arccos(np.clip((m - edge) / h, -1.0, 1.0)), nan=np.pi)
+        for edge in edges:
+            splits.append(np.nan_to_num(np.arccos(np.clip((m - edge) / h, -1.0, 1.0)),
+                                        nan=np.pi))
+    splits.append(np.full_like(m, np.pi))
     cum, dens = 0.0, 0.0
-    for lo, hi in ((np.zeros_like(tau_k), tau_k), (tau_k, np.full_like(tau_k, np.pi))):
+    for lo, hi in zip(splits[:-1], splits[1:], strict=True):
         tau = 0.5 * (lo + hi) + 0.5 * (hi - lo) * x[None, :]
         w = 0.5 * (hi - lo) * gw[None, :]
         part = _disc_terms(profile, a, rho[:, None], d, m, h, tau, w)

@@ -9,8 +9,17 @@ ends in exactly one place:
   :mod:`chiptwin.optics.psf`: diode ``diode_w_um × diode_h_um`` centred in its pitch cell);
 * **silicon outside the diodes**: transmitted into the silicon between the diodes or beyond the
   array (the fill factor: that light is absorbed and counts for no pixel);
-* **the top**: travelling upwards through the site plane (the solution above the site, its
-  meniscus and any lid are not modelled: what leaves upwards is gone);
+* **the top**: out through the site's top surface (``top``, :mod:`chiptwin.optics.top`): with
+  none (``"solution"``, the default: the solution continues far above the site) every ray going
+  up through the site plane; under an open surface (``"air"``) or a glass lid (``"glass"``) the
+  ray crosses ``solution_depth_um`` of solution (absorbing as layer 0), meets the surface with
+  Fresnel per polarisation and TIR, and with a lid bounces between the lid's two faces; what is
+  reflected comes back down through the site plane and goes on through the stack as any ray
+  (the multiple reflections between top and bottom follow, within ``max_events``). Well walls
+  span the first layer up to the site plane; above it the solution and the lid extend sideways
+  without bound, and a ray coming down outside the well lands on the wall material's top face
+  and is absorbed there (counted as **a wall**; for mirror walls too: a mirror top under a
+  surface that reflects by TIR would guide the light sideways without loss);
 * **a layer**: absorbed on its path through a layer (Beer–Lambert, ``alpha_per_um``);
 * **a wall**: absorbed by an absorbing well wall (a square well of side ``well_side_um`` centred
   on the site, its walls spanning the first layer from its lower interface up to the site plane);
@@ -70,6 +79,7 @@ from chiptwin.optics import thinfilm
 from chiptwin.optics.faceplate import Faceplate
 from chiptwin.optics.layers import Layer, Stack
 from chiptwin.optics.psf import _check_grid, _footprint, _sites
+from chiptwin.optics.top import Top
 
 EMITTERS: dict[str, int] = {"isotropic": _k.EMIT_ISOTROPIC, "lambertian": _k.EMIT_LAMBERTIAN}
 """Emitter angular laws: isotropic (molecules in solution) or Lambertian facing the diodes."""
@@ -388,6 +398,7 @@ def raytrace(
     cache: bool | Path = True,
     faceplate: Faceplate | None = None,
     cache_tag: str | int | None = None,
+    top: Top | None = None,
 ) -> RaytraceResult:
     """Site-to-pixel coupling by Monte Carlo ray tracing through a planar stack.
 
@@ -431,6 +442,9 @@ def raytrace(
     cache_tag : str or int, optional
         Added to the cache key: the seed of a caller that wants one matrix per seed (the twin
         passes ``optics.raytrace_seed``).
+    top : Top, optional
+        The site's top surface (:mod:`chiptwin.optics.top`); None or ``"solution"``: what goes
+        up through the site plane leaves (the bits and the cache key of a run without a top).
 
     Returns
     -------
@@ -445,7 +459,7 @@ def raytrace(
     else:
         n_below = float(faceplate.core_n if faceplate.core_n is not None
                         else stack.layers[-1].n)
-    n, bottom, top, alpha, *films = _stack_arrays(stack, n_below)
+    n, bottom, z_top, alpha, *films = _stack_arrays(stack, n_below)
     emit = _choice("emitter", emitter, EMITTERS)
     wall = _choice("walls", walls, WALLS)
     pol = _choice("polarisation", polarisation, POLARISATIONS)
@@ -462,6 +476,7 @@ def raytrace(
         raise TypeError(f"rng = {rng!r}: must be a numpy.random.Generator")
     if faceplate is not None and not isinstance(faceplate, Faceplate):
         raise TypeError(f"faceplate = {faceplate!r}: must be a chiptwin.optics.Faceplate")
+    top_args = _top_args(top, stack)
 
     spec = {"stack": dataclasses.asdict(stack), "grid": [rows, cols, pitch, diode_w_um,
             diode_h_um], "sites": [sx.tolist(), sy.tolist()], "footprint": [shape, size],
@@ -470,6 +485,8 @@ def raytrace(
             "max_events": max_events, "pilot": pilot_rays, "chunk": chunk_rays}
     if faceplate is not None:
         spec["faceplate"] = dataclasses.asdict(faceplate)
+    if top_args[0] != _k.TOP_NONE:
+        spec["top"] = dataclasses.asdict(top)
     if cache_tag is not None:
         spec["tag"] = cache_tag
     folder = None if cache is False else cache_dir() if cache is True else Path(cache)
@@ -491,11 +508,11 @@ def raytrace(
     per_site = np.zeros(sx.size, dtype=np.int64)
     seconds = 0.0
     for s in range(sx.size):
-        args = (float(sx[s]), float(sy[s]), foot, float(size), emit, pol, n, bottom, top, alpha,
+        args = (float(sx[s]), float(sy[s]), foot, float(size), emit, pol, n, bottom, z_top, alpha,
                 n_below, wall if math.isfinite(half_well) else _k.WALLS_NONE,
                 half_well if math.isfinite(half_well) else 0.0, rows, cols, pitch,
                 0.5 * float(diode_w_um), 0.5 * float(diode_h_um), max_events, *films,
-                n_layers, *fp)
+                n_layers, *fp, *top_args)
         per_site[s] = rays if rays else _pilot_rays(args, n_codes, pilot_rays, pilot_seqs[s],
                                                     chunk_rays, workers, rel, (sx[s], sy[s]),
                                                     (rows, cols, pitch))
@@ -511,6 +528,19 @@ def raytrace(
     if folder is not None:
         _cache_put(folder, key, result)
     return result
+
+
+def _top_args(top: Top | None, stack: Stack) -> tuple[int, float, float, float]:
+    """The kernel's top: kind, the solution's depth, the lid's index and thickness."""
+    if top is None:
+        return _k.TOP_NONE, 0.0, 1.0, 0.0
+    if not isinstance(top, Top):
+        raise TypeError(f"top = {top!r}: must be a chiptwin.optics.top.Top")
+    if top.medium == "glass" and top.lid_n < stack.layers[0].n:
+        raise ValueError(f"lid_n = {top.lid_n!r} below the solution's n = "
+                         f"{stack.layers[0].n!r}: a lid of lower index is not modelled")
+    kind = {"solution": _k.TOP_NONE, "air": _k.TOP_AIR, "glass": _k.TOP_GLASS}[top.medium]
+    return kind, float(top.solution_depth_um), float(top.lid_n), float(top.lid_thickness_um)
 
 
 def _pilot_rays(args, n_codes, pilot_rays, seq, chunk, workers, rel, site, grid) -> int:

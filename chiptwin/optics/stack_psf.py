@@ -23,6 +23,11 @@ four corners, as in the closed form. A disc footprint convolves the profile firs
 (:func:`chiptwin.optics.profile.disc_profile`); a square footprint and the faceplate's box blur are
 averaged over Gauss–Legendre nodes. Node counts double until two levels agree within
 ``rtol × plane fraction`` (the same contract as ``coupling_psf``).
+
+The site's top surface (``top``, :mod:`chiptwin.optics.top`): the light it returns is one more
+profile per part (air: one; a lid: its front face, and through the lid), an image source single
+reflection (:func:`chiptwin.optics.profile.build_profile`), summed with the direct light's
+coupling; each part converges within its share of the tolerance.
 """
 
 from __future__ import annotations
@@ -58,6 +63,7 @@ from chiptwin.optics.psf import (
     pixel_centers_um,
 )
 from chiptwin.optics.quadrature import gauss_legendre
+from chiptwin.optics.top import Top
 
 EMITTERS: tuple[str, ...] = (ISOTROPIC_LAW, LAMBERTIAN_LAW, LAMBERTIAN_NA2)
 """Emission laws by name: two physical ones and the paper's convention."""
@@ -254,6 +260,7 @@ def coupling_stack(
     site_side_um: float = 0.0,
     rtol: float = 1e-6,
     method: str = "auto",
+    top: Top | None = None,
 ) -> NDArray[np.float64]:
     """Site-to-pixel coupling through a planar stack (the ``psf`` level, single pass).
 
@@ -279,6 +286,15 @@ def coupling_stack(
     method : str
         ``"auto"`` (closed form for a homogeneous stack) or ``"radial"`` (always the general path;
         for tests of its accuracy).
+    top : Top, optional
+        The site's top surface (:mod:`chiptwin.optics.top`); None or ``"solution"``: nothing
+        returns (the coupling is today's, bit for bit). Otherwise, under the isotropic law, the
+        light the top returns is added by an image source, single reflection: each upward ray
+        weighted by the top's Fresnel reflectance per polarisation (TIR included; a lid's
+        incoherent slab reflectance) and moved ``2·D·tanθ₀`` (plus a lid's ``2·t·tanθ_g``)
+        before it goes down the same stack and faceplate as the direct light
+        (:func:`chiptwin.optics.profile.build_profile`). A Lambertian emitter facing the diodes
+        sends nothing up; ``lambertian_na2`` (one medium) refuses a top that returns light.
 
     Returns
     -------
@@ -292,13 +308,17 @@ def coupling_stack(
     grid = dict(n_rows=n_rows, n_cols=n_cols, pitch_um=pitch_um, diode_w_um=diode_w_um,
                 diode_h_um=diode_h_um, site_x_um=site_x_um, site_y_um=site_y_um,
                 site_radius_um=site_radius_um, site_side_um=site_side_um, rtol=rtol)
+    if top is not None and not isinstance(top, Top):
+        raise ValueError(f"top = {top!r}: must be a chiptwin.optics.top.Top")
+    returns = top is not None and top.returns and law == ISOTROPIC_LAW
     if law == LAMBERTIAN_NA2:
-        if faceplate is not None or into_silicon:
+        if faceplate is not None or into_silicon or (top is not None and top.returns):
             raise ValueError("emitter 'lambertian_na2' is the paper's one-medium convention: "
-                             "no faceplate, no silicon interface")
+                             "no faceplate, no silicon interface, no top that returns light")
         return coupling_psf(**grid, height_um=stack.height_um, convention=LAMBERTIAN_NA2)
     closed = ISOTROPIC if law == ISOTROPIC_LAW else LAMBERTIAN_NA2
-    if method == "auto" and stack.homogeneous and faceplate is None and not into_silicon:
+    if (method == "auto" and stack.homogeneous and faceplate is None and not into_silicon
+            and not returns):
         return coupling_psf(**grid, height_um=stack.height_um, convention=closed)
     rows, cols, _ = _check_grid(n_rows, n_cols, pitch_um, diode_w_um, diode_h_um)
     sx, sy = _sites(site_x_um, site_y_um)
@@ -306,17 +326,24 @@ def coupling_stack(
     if not 1e-12 <= tol <= 1e-2:
         raise ValueError(f"rtol = {tol!r} is out of range: must be in [1e-12, 1e-2]")
     shape, size = _footprint(site_radius_um, site_side_um)
-    atol = tol * _plane_of(law)
-    profile = build_profile(receiving_stack(stack, into_silicon=into_silicon, faceplate=faceplate),
-                            law, na=faceplate.na if faceplate else None)
-    if shape == "disc":
-        profile = disc_profile(profile, size, atol=0.25 * atol)
+    receiving = receiving_stack(stack, into_silicon=into_silicon, faceplate=faceplate)
+    na = faceplate.na if faceplate else None
+    profiles = [build_profile(receiving, law, na=na)]
+    if returns:
+        profiles += [build_profile(receiving, law, na=na, top=top, part=k)
+                     for k in range(top.parts)]
+    atol = tol * _plane_of(law) / len(profiles)  # each part within its share of the tolerance
     px, py = pixel_centers_um(rows, cols, pitch_um)
     dx = np.abs(px[:, None] - sx[None, :]).ravel()
     dy = np.abs(py[:, None] - sy[None, :]).ravel()
     first, inverse = distinct_offsets(dx, dy)
-    values = _converged(profile, dx[first], dy[first], 0.5 * diode_w_um, 0.5 * diode_h_um,
-                        size if shape == "square" else 0.0, faceplate, atol)
+    values = 0.0
+    for profile in profiles:
+        if shape == "disc":
+            profile = disc_profile(profile, size, atol=0.25 * atol)
+        values = values + _converged(profile, dx[first], dy[first], 0.5 * diode_w_um,
+                                     0.5 * diode_h_um, size if shape == "square" else 0.0,
+                                     faceplate, atol)
     if faceplate is not None:
         values = values * faceplate.open_area_ratio
     # rounding leaves −1e-17 where no light lands: a share is never negative
@@ -355,7 +382,7 @@ def _polarised(n1, n2, c1, c2, pol: str) -> NDArray:
 
 def plane_fraction_stack(stack: Stack, emitter: str, *, into_silicon: bool = False,
                          reflections: str = "single", band: thinfilm.Band | None = None,
-                         rtol: float = 1e-4) -> float:
+                         rtol: float = 1e-4, top: Top | None = None) -> float:
     """Fraction of the emitted photons reaching an infinite diode plane through ``stack``.
 
     ``reflections="single"``: the psf level's single pass (equal to the coupling summed over a
@@ -366,15 +393,21 @@ def plane_fraction_stack(stack: Stack, emitter: str, *, into_silicon: bool = Fal
     averaged over the emission ``band`` (default: the stack's own), over
     every angle the emitter sends down, so light that tunnels through a thin low-index layer
     beyond its critical angle counts; wavelength nodes double until two counts agree within
-    ``rtol`` of the fraction.
+    ``rtol`` of the fraction. ``top`` (``"single"`` only): adds the light the site's top
+    returns once (:func:`coupling_stack`'s image source, isotropic law).
     """
     law = check_emitter(emitter)
     if law == LAMBERTIAN_NA2:
         return 1.0
     receiving = receiving_stack(stack, into_silicon=into_silicon)
     layers = receiving.layers
+    returns = top is not None and top.returns and law == ISOTROPIC_LAW
+    if returns and reflections != "single":
+        raise ValueError("plane_fraction_stack with a top: reflections='single' only")
     if reflections == "single":
-        return build_profile(receiving, law).total
+        parts = range(top.parts) if returns else ()
+        return build_profile(receiving, law).total + sum(
+            build_profile(receiving, law, top=top, part=k).total for k in parts)
     if reflections == "coherent":
         return _coherent_fraction(layers, law, band or stack.band, rtol)
     if reflections != "incoherent":

@@ -310,6 +310,25 @@ def _assumption_rows(a: dict[str, Any] | None) -> list[tuple[str, str]]:
         for k, v in d.items()))]
 
 
+def _top_rows(t: dict[str, Any] | None) -> list[tuple[str, str]]:
+    """The top surface in two lines: what it is; what it returns and does to a centre site."""
+    if not t:
+        return []
+    depth = f"{t['solution_depth_um']:g} µm of solution"
+    what = (f"open well, {depth} under air" if t["medium"] == "air" else
+            f"{t['lid_thickness_um']:g} µm glass lid (n {t['lid_n']:g}) on {depth}")
+    w, wo = t["with"], t["without"]
+
+    def db(f: dict[str, Any]) -> str:
+        return "none" if f["crosstalk_db"] is None else f"{f['crosstalk_db']:+.1f} dB"
+
+    change = t["own_pixel_change_rel"]
+    return [("top surface", what),
+            (f"top's light ({t['level']})", f"{t['returned_share']:.1%} returns; own pixel "
+             + (f"{change:+.2%}" if change is not None else "n/a")
+             + f", cross-talk {db(wo)} → {db(w)}")]
+
+
 def _optics_rows(o: dict[str, Any] | None) -> list[tuple[str, str]]:
     """The optics lines of the headline: the run's own pixel and cross-talk, the emitter laws
     when they differ beyond the budget, the faceplate against direct contact, thin films."""
@@ -331,6 +350,7 @@ def _optics_rows(o: dict[str, Any] | None) -> list[tuple[str, str]]:
         rows.append(("faceplate vs direct contact (psf)",
                      f"with: {light(fp['with'])}; without: {light(fp['without'])}"
                      + (f"; own pixel × {ratio:.3g}" if ratio else "")))
+    rows += _top_rows(o.get("top"))
     tf = o.get("thin_films")
     if tf:
         films = ", ".join(f"{f['name']} ({f['thickness_um']:g} µm, n {f['n']:g})"

@@ -13,6 +13,11 @@ Three parts, each cheap (one site, at most a :data:`WINDOW` × :data:`WINDOW` wi
 * **the faceplate against direct contact** (a scenario with ``[optics.faceplate]``): own pixel,
   cross-talk and collected share at the ``psf`` level with the faceplate, and with the same
   layers directly on the diodes;
+* **the top surface** (a scenario whose ``[optics.top]`` returns light): what it is, the share
+  of an isotropic emitter's light it returns downwards through the site plane (and the part of
+  it beyond the critical angle into air, returned by TIR), and own pixel, cross-talk and
+  collected share of a centre site at the ``psf`` level with the top and without it
+  (``"solution"``), under the scenario's emitter law;
 * **thin films** (a stack with inner layers of at most ``optics.thin_film_um``): which layers
   are crossed coherently, over which band, and the share of the emitted light reaching the
   diode plane (a faceplate's acceptance and open area aside) with them coherent against the
@@ -67,6 +72,8 @@ def optics_figures(s: Scenario, coupling) -> dict[str, Any] | None:
     out["laws_differ_beyond_budget"] = bool(spread > budget)
     if o.faceplate.present:
         out["faceplate"] = faceplate_vs_direct(s)
+    if o.top.present:
+        out["top"] = top_figures(s)
     films = thin_films(s)
     if films:
         out["thin_films"] = films
@@ -127,18 +134,19 @@ def law_shares(s: Scenario) -> dict[str, float]:
     """Share of a point site's light at the array's centre on all diodes of the window (the
     footprint moves a share collected over many diodes by far less than the laws differ),
     ``psf`` through the stack, per emitter law (``lambertian_na2`` only without a faceplate: it
-    is a one-medium convention, without the silicon's reflection); ``optics.transmission`` not
-    applied."""
+    is a one-medium convention, without the silicon's reflection and the top);
+    ``optics.transmission`` not applied. The physical laws see the scenario's top."""
     grid, _ = _centre(s)
     grid["site_radius_um"] = 0.0  # a point site: the footprint's convolution is 85 % of the cost
-    stack, fp = stages.optics_stack(s), stages.optics_faceplate(s)
+    stack, fp, top = stages.optics_stack(s), stages.optics_faceplate(s), stages.optics_top(s)
     out = {}
     for law in optics.EMITTERS:
         if fp is not None and law == optics.LAMBERTIAN_NA2:
             continue
+        physical = law != optics.LAMBERTIAN_NA2  # the convention is one medium: no top
         c = optics.coupling_stack(**grid, stack=stack, emitter=law, faceplate=fp,
-                                  into_silicon=s.optics.silicon_n > 0
-                                  and law != optics.LAMBERTIAN_NA2)
+                                  into_silicon=s.optics.silicon_n > 0 and physical,
+                                  top=top if physical else None)
         out[law] = float(c.sum())
     return out
 
@@ -146,14 +154,15 @@ def law_shares(s: Scenario) -> dict[str, float]:
 def faceplate_vs_direct(s: Scenario) -> dict[str, Any]:
     """Own pixel, cross-talk and collected share of a centre site at the ``psf`` level, with the
     faceplate and with the same layers directly on the diodes (the faceplate removed, the site
-    lower by its thickness), under the scenario's emitter law."""
+    lower by its thickness), under the scenario's emitter law and top."""
     grid, p = _centre(s)
     stack, fp = stages.optics_stack(s), stages.optics_faceplate(s)
     small = replace(s, chip=replace(s.chip, rows=grid["n_rows"], cols=grid["n_cols"]))
     out: dict[str, Any] = {"level": "psf", "emitter": s.optics.law,
                            "direct": "the same layers directly on the diodes"}
     for name, face in (("with", fp), ("without", None)):
-        c = optics.coupling_stack(**grid, stack=stack, emitter=s.optics.law, faceplate=face)
+        c = optics.coupling_stack(**grid, stack=stack, emitter=s.optics.law, faceplate=face,
+                                  top=stages.optics_top(s))
         out[name] = _own_and_neighbour(small, c[:, 0] * s.optics.transmission, p)
     w, wo = out["with"], out["without"]
     if w["own_pixel"] and wo["own_pixel"]:
@@ -161,4 +170,32 @@ def faceplate_vs_direct(s: Scenario) -> dict[str, Any]:
     return out
 
 
-__all__ = ["faceplate_vs_direct", "law_shares", "optics_figures", "thin_films"]
+def top_figures(s: Scenario) -> dict[str, Any]:
+    """The top surface: its geometry, the share of the site's light it returns downwards
+    through the site plane (``returned_share``; ``tir_share`` the part beyond the critical angle
+    into air, returned by TIR) under the scenario's emitter law (an isotropic emitter's; 0 for a
+    Lambertian emitter facing the diodes, which sends nothing up), and a centre site's own
+    pixel, cross-talk and collected share at the ``psf`` level with the top and without it."""
+    top, stack = stages.optics_top(s), stages.optics_stack(s)
+    n0 = stack.layers[0].n
+    out: dict[str, Any] = {"medium": top.medium, "solution_depth_um": top.solution_depth_um,
+                           "solution_n": n0}
+    if top.medium == "glass":
+        out.update(lid_n=top.lid_n, lid_thickness_um=top.lid_thickness_um)
+    up = s.optics.law == optics.ISOTROPIC  # the only law that sends light up
+    out["returned_share"] = _r(optics.returned_fraction(top, n0)) if up else 0.0
+    out["tir_share"] = _r(0.5 * math.sqrt(max(0.0, 1.0 - (1.0 / n0) ** 2))) if up else 0.0
+    grid, p = _centre(s)
+    small = replace(s, chip=replace(s.chip, rows=grid["n_rows"], cols=grid["n_cols"]))
+    out.update(level="psf", emitter=s.optics.law)
+    for name, t in (("with", top), ("without", None)):
+        c = optics.coupling_stack(**grid, stack=stack, emitter=s.optics.law,
+                                  faceplate=stages.optics_faceplate(s),
+                                  into_silicon=s.optics.silicon_n > 0, top=t)
+        out[name] = _own_and_neighbour(small, c[:, 0] * s.optics.transmission, p)
+    w, wo = out["with"]["own_pixel"], out["without"]["own_pixel"]
+    out["own_pixel_change_rel"] = _r(w / wo - 1.0) if wo else None
+    return out
+
+
+__all__ = ["faceplate_vs_direct", "law_shares", "optics_figures", "thin_films", "top_figures"]

@@ -229,6 +229,16 @@ def optics_faceplate(s: Scenario) -> optics.Faceplate | None:
                             core_n=f.core_n or None)
 
 
+def optics_top(s: Scenario) -> optics.Top | None:
+    """``[optics.top]`` as a :class:`chiptwin.optics.Top`, or None when nothing returns
+    (``"solution"``: the coupling is bit for bit that of a scenario without the section)."""
+    t = s.optics.top
+    if not t.present:
+        return None
+    return optics.Top(medium=t.medium, solution_depth_um=t.solution_depth_um,
+                      lid_n=t.lid_index, lid_thickness_um=t.lid_thickness_um)
+
+
 def _grid(s: Scenario, rows: np.ndarray, cols: np.ndarray, rc: np.ndarray) -> dict:
     px = s.chip.pixel
     return dict(n_rows=len(rows), n_cols=len(cols), pitch_um=s.chip.pitch_um,
@@ -254,7 +264,7 @@ def _optics_grid(s: Scenario, rows: np.ndarray, cols: np.ndarray, rc: np.ndarray
                                    site_radius_um=s.sites.footprint_radius_um)
     c = optics.coupling_stack(**grid, stack=optics_stack(s), emitter=o.law,
                               faceplate=optics_faceplate(s), into_silicon=o.silicon_n > 0,
-                              site_radius_um=s.sites.footprint_radius_um)
+                              site_radius_um=s.sites.footprint_radius_um, top=optics_top(s))
     # the general path's corner sums leave ±1e-18 where no light lands (within its rtol): a
     # share of light is ≥ 0 (the closed form's, returned above, is untouched)
     return np.clip(c, 0.0, None)
@@ -276,7 +286,7 @@ def raytrace_result(s: Scenario, grid: dict | None = None):
     return raytrace(optics_stack(s), **grid, rng=stage_rng(o.raytrace_seed, "optics"),
                     site_radius_um=s.sites.footprint_radius_um, rel_error=o.raytrace_rel_error,
                     emitter=o.law, faceplate=optics_faceplate(s), cache_tag=o.raytrace_seed,
-                    **walls)
+                    top=optics_top(s), **walls)
 
 
 def _sparse_coupling(s: Scenario, rc: np.ndarray) -> sparse.csr_matrix:

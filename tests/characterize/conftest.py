@@ -21,7 +21,7 @@ import pytest
 
 from chiptwin.characterize import characterize
 from chiptwin.config import load_scenario
-from chiptwin.config.load import read_toml, scenario_from_dict
+from chiptwin.config.load import scenario_from_dict
 from tests.conftest import IDEAL_ADC, SCENARIOS
 
 #: A flux scene (light given at the sensor plane) on a chip to be characterised: the bench

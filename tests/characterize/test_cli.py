@@ -101,9 +101,10 @@ def test_fixed_point_cms_with_m_a_power_of_two_is_the_float_datasheet(characteri
 
 def test_bundled_datasheet_is_current(characterized, tmp_path):
     """Regression: ``scenarios/datasheets/pyro_1fmol_chip.json`` is the reference chip's
-    datasheet (its converters as built) as chiptwin measures it now, every figure within 5 combined standard errors (exact
-    where it has none). Regenerate it with ``chiptwin characterize pyro_1fmol --out OUT`` and copy
-    ``OUT/emva1288.json`` there. It also configures a twin by name (``--from pyro_1fmol_chip``)."""
+    datasheet (its converters as built) as chiptwin measures it now, every figure within 5
+    combined standard errors (exact where it has none). Regenerate it with ``chiptwin
+    characterize pyro_1fmol --out OUT`` and copy ``OUT/emva1288.json`` there. It also
+    configures a twin by name (``--from pyro_1fmol_chip``)."""
     from tests.conftest import SCENARIOS
 
     stored = json.loads((SCENARIOS / "datasheets" / "pyro_1fmol_chip.json").read_text())
