@@ -406,10 +406,11 @@ def as_built_quadrature(s: Scenario) -> Quadrature | None:
     effect, or the sawtooth's series answers every pixel-frame). The quadrature when the converter
     has a transition table, its white noise (read + comparator) is below the series' floor, or
     the dark level sits within ``10 (u + kTC)`` of code 0 (every dark pixel-frame then leaves the
-    series: ccd_two_wells with a 128-LSB comparator, its pedestal at code 1,311); its nodes by
+    series: ccd_two_wells with a 128-LSB comparator, its pedestal at code 1,311); a smooth INL bow
+    without DNL stays on the series where its curvature allows (``SMOOTH_INL_TOL``); its nodes by
     the kTC's ratio to ``u`` (:func:`~chiptwin.pixel.expected_adc.node_count`)."""
-    from chiptwin.pixel.converter import AsBuilt
-    from chiptwin.pixel.expected_adc import SERIES_MIN_WHITE_LSB, node_count
+    from chiptwin.pixel.converter import AsBuilt, bow_curvature
+    from chiptwin.pixel.expected_adc import SERIES_MIN_WHITE_LSB, SMOOTH_INL_TOL, node_count
     from chiptwin.pixel.sensor import ktc_noise_e
 
     a, p = s.chip.adc, s.chip.pixel
@@ -418,8 +419,12 @@ def as_built_quadrature(s: Scenario) -> Quadrature | None:
     u = as_built_white_lsb(s)
     ktc = ktc_noise_e(p.capacitance_fF, p.temperature_C + ZERO_C_K) * _lsb_per_electron(s)
     dark = (p.pedestal_V - a.v_min_V) * _lsb_per_volt(s) + a.offset_error_lsb
-    table = AsBuilt.from_keys(a).shaped
-    if table or u < SERIES_MIN_WHITE_LSB or dark - 10.0 * (u + ktc) < 0.5:
+    spec = AsBuilt.from_keys(a)
+    smooth = (spec.inl_shape != "table" and spec.dnl_rms_lsb == 0.0
+              and bow_curvature(spec.inl_max_lsb, spec.inl_shape, a.bits) * (u + ktc) ** 2
+              <= SMOOTH_INL_TOL)
+    table = spec.shaped and not smooth
+    if table or u < SERIES_MIN_WHITE_LSB or dark - 10.0 * (u + ktc) - abs(spec.inl_max_lsb) < 0.5:
         return Quadrature(node_count(ktc, u), u, table)
     return None
 
