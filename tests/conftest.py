@@ -19,6 +19,13 @@ SCENARIOS = ROOT / "scenarios"
 IDEAL_ADC = ["chip.adc.comparator_noise_uV=0", "chip.adc.inl_max_lsb=0",
              "chip.adc.dnl_rms_lsb=0", "chip.adc.offset_sigma_lsb=0", "chip.adc.gain_sigma=0"]
 
+#: ``--set`` overrides that take such a scene back to the paper's idealised chip: the ideal
+#: converter, the NA² emitter convention and no top surface (nothing returned from above), for
+#: tests whose oracle is a closed form of that idealisation.
+NO_TOP = ['optics.top.medium="solution"', "optics.top.solution_depth_um=0",
+          "optics.top.lid_thickness_um=0", "optics.top.lid_n=0"]
+PAPER_CHIP = IDEAL_ADC + ['optics.emitter="lambertian_na2"'] + NO_TOP
+
 SMALL = """
 [scenario]
 name = "small"

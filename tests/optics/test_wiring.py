@@ -22,7 +22,7 @@ from chiptwin.config import load_scenario
 from chiptwin.fidelity.auto import resolve
 from chiptwin.twin import stages
 from chiptwin.twin.levels import LEVELS, reference_levels, with_levels
-from tests.conftest import SCENARIOS, SMALL
+from tests.conftest import NO_TOP, PAPER_CHIP, SCENARIOS, SMALL
 
 SIGMAS = 4.0
 
@@ -48,8 +48,9 @@ def test_levels_and_reference():
     """raytrace is the optics stage's most faithful level; the reference where the scene has a
     physical emitter law, psf under the paper's convention."""
     assert LEVELS["optics"] == ("na2", "psf", "raytrace")
-    assert reference_levels(load_scenario(SCENARIOS / "pyro_1fmol.toml"))["optics"] == "psf"
-    s = load_scenario(SCENARIOS / "pyro_1fmol.toml", ISOTROPIC)
+    paper = load_scenario(SCENARIOS / "pyro_1fmol.toml", PAPER_CHIP)
+    assert reference_levels(paper)["optics"] == "psf"
+    s = load_scenario(SCENARIOS / "pyro_1fmol.toml")  # isotropic, under a flow cell's lid
     assert reference_levels(s)["optics"] == "raytrace"
     lens = load_scenario(SCENARIOS / "ccd_100fmol.toml", ISOTROPIC)
     assert reference_levels(lens)["optics"] == "na2"
@@ -171,7 +172,11 @@ def test_the_solution_fills_the_site_height():
 
 def test_jssc2006_faceplate_runs_and_reports(tmp_path):
     """The reference chip on its faceplate: the run reports own pixel and cross-talk with the
-    faceplate against the same solution directly on the diodes (summary and report.md)."""
+    faceplate against the same solution directly on the diodes (summary and report.md). The
+    faceplate alone puts no light on a neighbour (below −120 dB, without the flow cell's lid);
+    the lid returns light, but what its top face returns by total internal reflection travels
+    beyond 48.75° in water, outside the NA-1.0 faceplate's acceptance: only the solution/glass
+    face's Fresnel share gets through, −35.1 dB on the edge neighbour."""
     out = tmp_path / "out"
     argv = ["run", "jssc2006_faceplate", "--out", str(out), "--set", "assay.n_flows=8",
             "--set", "run.duration_s=500.0"]
@@ -181,7 +186,8 @@ def test_jssc2006_faceplate_runs_and_reports(tmp_path):
     o = sm["optics"]
     assert o["emitter"] == "isotropic" and o["laws_differ_beyond_budget"]
     fp = o["faceplate"]
-    assert fp["with"]["crosstalk_db"] is None  # below −120 dB: no light on a neighbour
+    assert fp["with"]["crosstalk_db"] == pytest.approx(-35.07, abs=0.05)
+    assert o["top"]["medium"] == "glass"
     assert fp["without"]["crosstalk_db"] == pytest.approx(-18.85, abs=0.05)
     assert fp["own_pixel_ratio"] == pytest.approx(0.2854, abs=1e-3)
     assert o["own_pixel"] == pytest.approx(fp["with"]["own_pixel"], rel=1e-9)
@@ -222,7 +228,7 @@ def test_auto_picks_among_the_three_levels_with_reasons(tmp_path):
     na2 and psf against it and says why it picked what it picked."""
     budget = ["run.error_budget.signal_rel=0.05", 'run.fidelity.optics="auto"',
               "run.duration_s=60.0"]
-    s = load_scenario(SCENARIOS / "atp_glow.toml", ISOTROPIC + budget)
+    s = load_scenario(SCENARIOS / "atp_glow.toml", ISOTROPIC + NO_TOP + budget)  # na2: no top
     assert reference_levels(s)["optics"] == "raytrace"
     resolved, choice = resolve(s, cache=tmp_path / "est.sqlite")
     level = choice.levels["optics"]
@@ -231,6 +237,6 @@ def test_auto_picks_among_the_three_levels_with_reasons(tmp_path):
     assert "against raytrace" in why and "raytrace reference" in why
     if level != "na2":
         assert "not na2" in why
-    tight = load_scenario(SCENARIOS / "atp_glow.toml", ISOTROPIC + budget + [
+    tight = load_scenario(SCENARIOS / "atp_glow.toml", ISOTROPIC + NO_TOP + budget + [
         "run.error_budget.signal_rel=1e-6"])
     assert resolve(tight, cache=tmp_path / "est.sqlite")[1].levels["optics"] == "raytrace"

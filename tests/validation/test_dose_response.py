@@ -5,7 +5,10 @@ Salama et al. 2004, §4: the kinetics, optics, sensor and post-processing models
 "the minimum detectable analyte concentration" for a set of system parameters; the paper gives no
 number for it on the CMOS chip, so the LoD is checked against its closed form from the same
 models (eq. 12 light, the Lambertian view factor of the diode, eq. 21 noise with CMS, the ADC's
-rounding and the dark reference), not against a published figure.
+rounding and the dark reference), not against a published figure. The closed form is the
+paper's idealised chip (the ideal converter, the NA² convention, nothing returned from above):
+the checks of it run the scene on that chip (``PAPER_CHIP``); the bundled scene is the chip as
+built.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from chiptwin.config import ScenarioError, load_scenario
 from chiptwin.constants import N_A, Q_E
 from chiptwin.twin.dose_response import interpolate_lod
 from chiptwin.twin.runner import prepare, run_prepared
-from tests.conftest import SCENARIOS
+from tests.conftest import PAPER_CHIP, SCENARIOS
 
 PATH = SCENARIOS / "atp_dose_response.toml"
 
@@ -36,7 +39,7 @@ def _run(s, seed: int | None = None, scene=None):
 
 @pytest.fixture(scope="module")
 def result():
-    return _run(load_scenario(PATH))
+    return _run(load_scenario(PATH, PAPER_CHIP))
 
 
 def _view_factor(half_w_um: float, height_um: float) -> float:
@@ -180,10 +183,11 @@ def test_blank_three_sigma_threshold_gives_the_normal_false_positive_rate():
 
 
 def test_a_pyrosequencing_dose_response_compares_one_mer_levels():
-    """Per-site DNA on pyro_1fmol's chip: each site's expected signal is its key 1-mer level
+    """Per-site DNA on pyro_1fmol's chip (idealised: under the flow cell's lid the blanks would
+    read the light it returns): each site's expected signal is its key 1-mer level
     (eq. 19 light ∝ DNA, within 3 %: PRNU 1 % rms and neighbours' cross-talk), the measured
     1-mer level is within 5 of its standard deviations of it, and the blanks read no light."""
-    s = load_scenario(SCENARIOS / "pyro_1fmol.toml", [
+    s = load_scenario(SCENARIOS / "pyro_1fmol.toml", PAPER_CHIP + [
         "sites.at_pixels=[[4, 8], [2, 3], [6, 12], [1, 14], [6, 3]]",
         "sites.amounts_fmol=[1.0, 0.1, 0.01, 0, 0]"])
     d = _run(s).summary["dose_response"]
