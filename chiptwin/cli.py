@@ -418,7 +418,7 @@ def _refusal(message: str) -> ScenarioError:
 def _bundled_note(name: str, study: bool = False) -> str:
     """", bundled" when a name (not a path) was read from the package's own copy."""
     bundled = bundled_studies() if study else bundled_scenarios()
-    return ", bundled" if Path(name).stem in bundled and not Path(name).exists() else ""
+    return ", bundled" if Path(name).stem in bundled and not Path(name).is_file() else ""
 
 
 def _list() -> int:

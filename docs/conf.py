@@ -3,8 +3,10 @@ docstrings, furo. Built by ``bash scripts/docs.sh`` with warnings as errors."""
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
+import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -18,8 +20,16 @@ os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), str(HERE / "
 # plt.show(): the twin's plotting selects matplotlib's Agg backend, which shows nothing in a
 # kernel. Agg here too, so this process never looks for a display.
 os.environ.setdefault("MPLBACKEND", "Agg")
-# No kernel chatter in the build's output: the frozen-modules debugger note of ipykernel
+# No kernel chatter in the build's output (`-q` shows warnings and errors only): ipykernel's
+# "running over TCP without encryption" and its debugger's frozen-modules note, nbclient's
+# "Executing notebook" line. The kernels read their log level from a profile made here.
 os.environ.setdefault("PYDEVD_DISABLE_FILE_VALIDATION", "1")
+_ipython = Path(tempfile.mkdtemp(prefix="chiptwin-docs-ipython-"))
+(_ipython / "profile_default").mkdir()
+(_ipython / "profile_default" / "ipython_kernel_config.py").write_text(
+    'c.IPKernelApp.log_level = "ERROR"\n')
+os.environ["IPYTHONDIR"] = str(_ipython)
+logging.getLogger("traitlets").setLevel(logging.WARNING)
 
 import chiptwin  # noqa: E402
 

@@ -199,3 +199,12 @@ def test_progress_stays_silent_on_a_quick_run(monkeypatch, capsys):
 def test_the_parser_names_every_command():
     parser = build_parser()
     assert set(COMMANDS) <= set(parser.format_help().split())
+
+
+def test_a_folder_named_like_a_bundled_scenario_does_not_hide_it(tmp_path, monkeypatch, capsys):
+    """One rule: a name that is a file is that file, any other name a bundled scenario's
+    (``chiptwin run pyro_1fmol --out pyro_1fmol`` leaves such a folder behind)."""
+    (tmp_path / "pyro_1fmol").mkdir()
+    monkeypatch.chdir(tmp_path)
+    assert main(["validate", "pyro_1fmol"]) == 0
+    assert capsys.readouterr().out.startswith("pyro_1fmol: ok (pyro_1fmol, bundled)")

@@ -20,7 +20,9 @@ from pathlib import Path
 SHORTER: dict[str, list[str]] = {
     "pyro_1fmol": ["assay.n_flows=8", "run.duration_s=500.0"],
     "ccd_100fmol": ["assay.n_flows=8", "run.duration_s=496.0"],
-    "pyro_array_256": ["assay.n_flows=8", "run.duration_s=500.0", "chip.rows=32", "chip.cols=32"],
+    "pyro_array_256": ["assay.n_flows=8", "run.duration_s=500.0", "chip.rows=16", "chip.cols=16",
+                       "sites.at_pixels=[" + ", ".join(f"[{r}, {c}]" for r in (1, 5, 9, 13)
+                                                       for c in (1, 5, 9, 13)) + "]"],
     "pyro_paper_yield": ["assay.n_flows=8", "run.duration_s=500.0"],
     "pyro_paper_yield_fast": ["assay.n_flows=8", "assay.flow_period_s=4.0",
                               "run.duration_s=34.0"],
@@ -45,7 +47,8 @@ def scenario_outputs(name: str) -> Path:
 
 def command(name: str) -> str:
     """The shell command that makes the figure (with the shortening keys, if any)."""
-    sets = "".join(f" --set {k}" for k in SHORTER.get(name, []))
+    sets = "".join(f" --set {k}" if " " not in k else f" --set '{k}'"
+                   for k in SHORTER.get(name, []))
     return f"chiptwin run {name}{sets}"
 
 
