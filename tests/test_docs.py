@@ -147,3 +147,18 @@ def test_local_links_resolve(path):
         if not (path.parent / file).exists():
             broken.append(target)
     assert not broken, f"{path}: broken links {broken}"
+
+
+def test_generated_reference_reads_as_a_person_would_type_it():
+    """No raw machine bounds (2^63 − 1, 1.67772e+07), every flag as code (so a copied command
+    keeps its two hyphens), ``<...>`` escaped so Markdown does not read it as a tag, and an
+    example file at the top of the two file references."""
+    cli, scenario, study = REF.cli_markdown(), REF.scenario_markdown(), REF.study_markdown()
+    for text in (cli, scenario, study):
+        assert "9223372036854775807" not in text and "e+" not in text
+        assert not re.search(r"(?<!\\)<[a-z]", text.split("-->", 1)[1]), "an unescaped tag"
+    assert "`--set KEY=VALUE`" in cli and "`--out OUT`" in cli
+    assert "≥ 0" in scenario and "−2^24 … 2^24" in scenario
+    assert scenario.index("```toml") < scenario.index("## `[scenario]`")
+    assert study.index("```toml") < study.index("## `[study]`")
+    assert REF._num(16777216) == "2^24" and REF._num(1e-9) == "1e-9" and REF._num(4096) == "4,096"

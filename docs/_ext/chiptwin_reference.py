@@ -143,7 +143,9 @@ def _default(f: dataclasses.Field) -> str:
         return f'`"{value}"`'
     if isinstance(value, list):
         return "`[" + ", ".join(f'"{v}"' if isinstance(v, str) else str(v) for v in value) + "]`"
-    return f"`{value:g}`" if isinstance(value, float) else f"`{value}`"
+    if isinstance(value, float):  # 6e6, not 6e+06: what one would type in the file
+        return "`" + f"{value:g}".replace("e+0", "e").replace("e-0", "e-").replace("e+", "e") + "`"
+    return f"`{value}`"
 
 
 def _allowed(f: dataclasses.Field) -> str:
