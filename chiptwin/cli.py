@@ -26,6 +26,7 @@ from chiptwin.cli_text import (
     WIDTH,
     epilog,
     first_sentences,
+    fit,
     listing,
     opening_comment,
     paragraph,
@@ -306,7 +307,7 @@ def _characterize(args: argparse.Namespace) -> int:
         result = characterize(scenario, progress=progress, datasheet_in=datasheet)
         out = result.write(out)
     if not args.quiet:
-        print("\n".join(headline(result.datasheet)))
+        print(fit(headline(result.datasheet)))
         print(f"  outputs in {out}/ ({JSON_NAME}, datasheet.md, plots)")
     return 0
 
@@ -331,7 +332,7 @@ def _characterize_adc(scenario, args: argparse.Namespace) -> int:
         bench = adc_bench(scenario, settings=settings, progress=progress)
     out = bench.write(out)
     if not args.quiet:
-        print("\n".join(headline(bench.to_json())))
+        print(fit(headline(bench.to_json())))
         print(f"  {bench.wall_time_s:.1f} s; outputs in {out}/ ({JSON_NAME}, adc1241.npz, "
               "adc1241.md, plots)")
     return 0
@@ -462,8 +463,7 @@ def _study(args: argparse.Namespace) -> int:
                 shutil.rmtree(out, ignore_errors=True)
             raise
         write_study_outputs(result, out)
-    for line in answer_lines(result.summary):
-        print(line)
+    print(fit(answer_lines(result.summary)))
     runs = result.summary["runs"]
     print(f"  {runs['total']} runs ({runs['computed']} computed now, {runs['resumed']} resumed) "
           f"in {result.summary['wall_time_s']:.1f} s; outputs in {out}/ (study.json, "

@@ -98,6 +98,19 @@ def table(rows: Iterable[tuple[str, str]], width: int = WIDTH) -> str:
     return "\n".join(out)
 
 
+def fit(lines: Iterable[str], width: int = WIDTH) -> str:
+    """Lines printed as they are when they fit, else wrapped under their own indent + 2."""
+    out = []
+    for line in lines:
+        if len(line) <= width:
+            out.append(line)
+            continue
+        indent = " " * (len(line) - len(line.lstrip()))
+        out += textwrap.wrap(line, width, initial_indent=indent, subsequent_indent=indent + "  ",
+                             break_on_hyphens=False)
+    return "\n".join(out)
+
+
 def closest(name: str, known: Iterable[str], n: int = 3) -> list[str]:
     """Known names close to a mistyped one (difflib's ratio ≥ 0.5), closest first; a known name
     that contains it, or is contained in it, counts as close."""

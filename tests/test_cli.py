@@ -208,3 +208,11 @@ def test_a_folder_named_like_a_bundled_scenario_does_not_hide_it(tmp_path, monke
     monkeypatch.chdir(tmp_path)
     assert main(["validate", "pyro_1fmol"]) == 0
     assert capsys.readouterr().out.startswith("pyro_1fmol: ok (pyro_1fmol, bundled)")
+
+
+def test_fit_wraps_long_lines_under_their_indent():
+    text = cli_text.fit(["short", "    " + "word " * 40])
+    lines = text.splitlines()
+    _lines_fit(text)
+    assert lines[0] == "short" and lines[1].startswith("    word")
+    assert lines[2].startswith("      word")
