@@ -106,7 +106,8 @@ def fit(lines: Iterable[str], width: int = WIDTH) -> str:
             out.append(line)
             continue
         indent = " " * (len(line) - len(line.lstrip()))
-        out += textwrap.wrap(line, width, initial_indent=indent, subsequent_indent=indent + "  ",
+        out += textwrap.wrap(line.strip(), width, initial_indent=indent,
+                             subsequent_indent=indent + "  ",
                              break_on_hyphens=False)
     return "\n".join(out)
 
