@@ -258,7 +258,8 @@ def _dispatch(args: argparse.Namespace) -> int:
         out = write_outputs(result, out)
     if not args.quiet:
         print(table(headline(result.summary)))
-        print(table([("outputs in", f"{out}/ (summary.json, arrays.npz, report.md, plots)")]))
+        print(table([("outputs in", f"{_shown(out)}/ (summary.json, arrays.npz, report.md, "
+                                    "plots)")]))
     return 0
 
 
@@ -308,7 +309,7 @@ def _characterize(args: argparse.Namespace) -> int:
         out = result.write(out)
     if not args.quiet:
         print(fit(headline(result.datasheet)))
-        print(f"  outputs in {out}/ ({JSON_NAME}, datasheet.md, plots)")
+        print(f"  outputs in {_shown(out)}/ ({JSON_NAME}, datasheet.md, plots)")
     return 0
 
 
@@ -333,7 +334,7 @@ def _characterize_adc(scenario, args: argparse.Namespace) -> int:
     out = bench.write(out)
     if not args.quiet:
         print(fit(headline(bench.to_json())))
-        print(f"  {bench.wall_time_s:.1f} s; outputs in {out}/ ({JSON_NAME}, adc1241.npz, "
+        print(f"  {bench.wall_time_s:.1f} s; outputs in {_shown(out)}/ ({JSON_NAME}, adc1241.npz, "
               "adc1241.md, plots)")
     return 0
 
@@ -409,6 +410,14 @@ def _study_path(name: str) -> Path:
     return path
 
 
+def _shown(path: Path) -> str:
+    """An output folder as the user would type it: relative when it is under this folder."""
+    try:
+        return str(Path(path).resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
 def _refusal(message: str) -> ScenarioError:
     """A refusal of the command line itself (no file, no key to name): printed as it is."""
     exc = ScenarioError("chiptwin", "(command line)", None, message)
@@ -466,7 +475,7 @@ def _study(args: argparse.Namespace) -> int:
     print(fit(answer_lines(result.summary)))
     runs = result.summary["runs"]
     print(f"  {runs['total']} runs ({runs['computed']} computed now, {runs['resumed']} resumed) "
-          f"in {result.summary['wall_time_s']:.1f} s; outputs in {out}/ (study.json, "
+          f"in {result.summary['wall_time_s']:.1f} s; outputs in {_shown(out)}/ (study.json, "
           "results.csv, results.sqlite, report.md)")
     return 0
 
@@ -521,7 +530,7 @@ def _ladder(scenario, args: argparse.Namespace) -> int:
         write_ladder(ladder, out)
     if args.json:
         Path(args.json).write_text(json.dumps(ladder, indent=1) + "\n")
-    print(f"  outputs in {out}/ (ladder.json, ladder.png, ladder.md)")
+    print(f"  outputs in {_shown(out)}/ (ladder.json, ladder.png, ladder.md)")
     return 0
 
 

@@ -11,8 +11,17 @@ import re
 import textwrap
 from collections.abc import Iterable, Mapping
 
-#: Columns every line the CLI prints fits in (a laptop's terminal; a pasted log stays readable).
+#: Columns every line the CLI prints fits in (a laptop's terminal; a pasted log stays readable);
+#: a narrower terminal (or ``COLUMNS``) narrows the tables (:func:`columns`).
 WIDTH = 100
+
+
+def columns() -> int:
+    """The width tables wrap to: the terminal's (``COLUMNS`` when set), at most :data:`WIDTH`,
+    at least 60."""
+    import shutil
+
+    return max(60, min(WIDTH, shutil.get_terminal_size((WIDTH, 24)).columns))
 #: The label column of the terminal table: two spaces, 28 characters, one space.
 LABEL = 28
 
@@ -83,9 +92,10 @@ def paragraph(text: str) -> str:
     return textwrap.fill(text, WIDTH)
 
 
-def table(rows: Iterable[tuple[str, str]], width: int = WIDTH) -> str:
+def table(rows: Iterable[tuple[str, str]], width: int | None = None) -> str:
     """The terminal table: a label column and values wrapped under themselves, every line within
     ``width`` columns; a label longer than its column gets a line of its own."""
+    width = width or columns()
     indent = " " * (2 + LABEL + 1)
     out = []
     for label, value in rows:
@@ -98,8 +108,9 @@ def table(rows: Iterable[tuple[str, str]], width: int = WIDTH) -> str:
     return "\n".join(out)
 
 
-def fit(lines: Iterable[str], width: int = WIDTH) -> str:
+def fit(lines: Iterable[str], width: int | None = None) -> str:
     """Lines printed as they are when they fit, else wrapped under their own indent + 2."""
+    width = width or columns()
     out = []
     for line in lines:
         if len(line) <= width:

@@ -176,6 +176,7 @@ def cli_output(*argv: str) -> str:
 
     here, buf = os.getcwd(), io.StringIO()
     os.chdir(tempfile.mkdtemp())
+    os.environ["COLUMNS"] = "76"  # the width of a page's code block
     try:
         with contextlib.redirect_stdout(buf):
             code = main(list(argv))
