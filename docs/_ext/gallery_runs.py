@@ -83,8 +83,9 @@ def _frame_memory(st: dict) -> None:
 
 
 def _lod(st: dict) -> None:
-    st.update(replicates=4, batch=4)
-    st["axis"][0]["n"] = 7
+    st.update(replicates=4, search="grid")
+    st.pop("batch", None)
+    st["axis"][0]["n"] = 5
 
 
 #: How each study is shrunk, and the keys the page names.
@@ -92,7 +93,8 @@ TINY = {
     "adc_bits_pyro": (_adc_bits, "10 … 16 bits at 1 fmol, ideal comparator, 2 replicates, "
                       "8 flows, the SNR loss only"),
     "frame_memory": (_frame_memory, "its whole grid, 2 replicates, 8 flows"),
-    "lod_pyro": (_lod, "7 amounts instead of 13, 4 replicates a point instead of up to 300"),
+    "lod_pyro": (_lod, "5 amounts on a grid instead of 13 searched by bisection, 4 replicates "
+                 "a point instead of up to 300"),
 }
 
 
