@@ -47,9 +47,21 @@ def scenario_outputs(name: str) -> Path:
 
 def command(name: str) -> str:
     """The shell command that makes the figure (with the shortening keys, if any)."""
-    sets = "".join(f" --set {k}" if " " not in k else f" --set '{k}'"
-                   for k in SHORTER.get(name, []))
-    return f"chiptwin run {name}{sets}"
+    return shell(f"chiptwin run {name}", *[f"--set {k}" if " " not in k else f"--set '{k}'"
+                                            for k in SHORTER.get(name, [])])
+
+
+def shell(*words: str, width: int = 76) -> str:
+    """A command line as one would type it in a page's code block: continued with a
+    backslash where it would pass ``width`` columns."""
+    lines = [words[0]]
+    for word in words[1:]:
+        if len(lines[-1]) + 1 + len(word) > width - 2:
+            lines[-1] += " \\"
+            lines.append("    " + word)
+        else:
+            lines[-1] += " " + word
+    return "\n".join(lines)
 
 
 def show(name: str, figure: str, width: int = 640):
@@ -110,6 +122,15 @@ def study_outputs(name: str) -> Path:
     result = run_study(_tiny(name, edit), workers=1, db=out / "results.sqlite")
     write_study_outputs(result, out)
     return out
+
+
+def study_command(name: str) -> str:
+    """The command of the full study, and a comment saying how the figure's run was shrunk."""
+    import textwrap
+
+    return f"chiptwin study {name}\n" + textwrap.fill(
+        f"the figure: a tiny version, {TINY[name][1]}", 76, initial_indent="# ",
+        subsequent_indent="# ")
 
 
 def show_study(name: str, figure: str, width: int = 640):
