@@ -10,8 +10,8 @@ import re
 
 import pytest
 
-from chiptwin import cli_text
 from chiptwin.cli import _Progress, build_parser, main
+from chiptwin.cli import text as cli_text
 from chiptwin.config import load_scenario
 from chiptwin.config.catalog import bundled_scenarios, bundled_studies
 from chiptwin.report.outputs import headline
@@ -173,7 +173,7 @@ class _Clock:
 
 def test_progress_to_a_file_prints_rate_and_eta_every_few_seconds(monkeypatch, capsys):
     clock = _Clock()
-    monkeypatch.setattr("chiptwin.cli.time.perf_counter", clock)
+    monkeypatch.setattr("chiptwin.cli.progress.time.perf_counter", clock)
     p = _Progress("frames")
     assert not p.tty  # capsys: not a terminal
     for k in range(1, 1001):
@@ -188,7 +188,7 @@ def test_progress_to_a_file_prints_rate_and_eta_every_few_seconds(monkeypatch, c
 
 def test_progress_stays_silent_on_a_quick_run(monkeypatch, capsys):
     clock = _Clock()
-    monkeypatch.setattr("chiptwin.cli.time.perf_counter", clock)
+    monkeypatch.setattr("chiptwin.cli.progress.time.perf_counter", clock)
     p = _Progress("frames")
     for k in range(1, 101):
         clock.t += 0.001

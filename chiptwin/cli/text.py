@@ -178,8 +178,9 @@ def opening_comment(source: str) -> str:
     return " ".join(lines)
 
 
-def listing(entries: Mapping[str, str], width: int = WIDTH) -> str:
+def listing(entries: Mapping[str, str], width: int | None = None) -> str:
     """``chiptwin list``'s lines: the name, then its description wrapped under itself."""
+    width = width or columns()
     col = max([len(n) for n in entries] + [22]) + 2
     out = []
     for name, text in entries.items():

@@ -1,5 +1,9 @@
 """The ``chiptwin`` command: a thin layer over :func:`chiptwin.twin.runner.run`.
 
+Here the parser and what each command does; what it prints besides the numbers (help texts,
+tables, close names) in :mod:`chiptwin.cli.text`, its progress line in
+:mod:`chiptwin.cli.progress`.
+
 Exit codes: 0 success, 2 bad input (one clear line, no traceback), 1 internal error, 130 on
 Ctrl-C and 143 on SIGTERM (what ``kill``, systemd, Slurm and Kubernetes send): both stop the
 command the same way, one line, everything a study stored kept, its workers gone.
@@ -15,14 +19,14 @@ import signal
 import sys
 import textwrap
 import threading
-import time
 import traceback
 from collections.abc import Sequence
 from pathlib import Path
 
 from chiptwin import __version__
 from chiptwin._numba import announce_compiles
-from chiptwin.cli_text import (
+from chiptwin.cli.progress import Progress as _Progress
+from chiptwin.cli.text import (
     WIDTH,
     epilog,
     first_sentences,
@@ -62,7 +66,7 @@ def _command(sub, name: str, help: str, **kw) -> argparse.ArgumentParser:
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter):
-    """Keeps the epilog's example columns; wraps the rest to :data:`cli_text.WIDTH`."""
+    """Keeps the epilog's example columns; wraps the rest to :data:`chiptwin.cli.text.WIDTH`."""
 
     def __init__(self, prog: str) -> None:
         super().__init__(prog, width=WIDTH, max_help_position=32)
@@ -354,7 +358,7 @@ def _is_study(name: str) -> bool:
 def _validate_study(name: str, verbose: bool = False) -> int:
     """Every point checked, as ``chiptwin study`` does before its first run: the inconsistent
     points grouped by the key that refuses them, and the estimated wall time."""
-    from chiptwin.cli_text import invalid_summary
+    from chiptwin.cli.text import invalid_summary
     from chiptwin.config.cost import ESTIMATE_FACTOR, format_seconds
     from chiptwin.study import load_study
     from chiptwin.study.engine import Plan, estimate_s
@@ -392,7 +396,7 @@ def _scenario_path(name: str, studies_too: bool = False) -> Path:
     closest bundled names (before the loader's "not a readable file")."""
     path = resolve_scenario(name)
     if not path.exists():
-        from chiptwin.cli_text import unknown_name
+        from chiptwin.cli.text import unknown_name
 
         known = [*bundled_scenarios(), *(bundled_studies() if studies_too else ())]
         raise _refusal(unknown_name(name, "scenario or study" if studies_too else "scenario",
@@ -404,7 +408,7 @@ def _study_path(name: str) -> Path:
     """A study file as given, or a bundled study's, as :func:`_scenario_path`."""
     path = resolve_study(name)
     if not path.exists():
-        from chiptwin.cli_text import unknown_name
+        from chiptwin.cli.text import unknown_name
 
         raise _refusal(unknown_name(name, "study", bundled_studies()))
     return path
@@ -552,85 +556,6 @@ def _check_json_path(json_path: str) -> None:
     if target.is_dir() or not target.parent.is_dir():
         raise ScenarioError("chiptwin", "--json", json_path,
                             "must be a file path in an existing folder")
-
-
-class _Progress:
-    """Progress on stderr once work has taken ``after_s`` seconds: on a terminal a bar redrawn
-    every second; off one (a log file, a batch job's output) a plain line every
-    :attr:`FILE_INTERVAL_S` seconds, each with the rate and the time left once a unit has
-    finished, and a closing line with the total time when any line was printed.
-
-    With ``weights`` (the estimated seconds of each unit, in order: :mod:`chiptwin.config.cost`)
-    the time left is the estimate of the units left scaled by measured / estimated so far, which
-    holds steady when units differ in cost (a ladder's levels); without, the measured rate. No rate
-    is shown before a unit has finished.
-    """
-
-    PRIOR_UNITS = 4
-    TTY_INTERVAL_S, FILE_INTERVAL_S = 1.0, 5.0
-
-    def __init__(self, unit: str = "frames", after_s: float = 1.0,
-                 weights: Sequence[float] | None = None) -> None:
-        self.unit = unit
-        self.t0 = time.perf_counter()
-        self.after_s = after_s
-        self.last: float | None = None  # when a line was last printed
-        self.weights = list(weights) if weights else None
-        self.per_unit_s: float | None = None  # one estimate for every unit (a study's rows)
-        self.start: int | None = None  # units already done when the first call came (resumed)
-        self.tty = sys.stderr.isatty()
-
-    def __call__(self, done: int, total: int) -> None:
-        now = time.perf_counter()
-        if self.start is None:  # measured from the first unit on (not the start-up before it)
-            self.start, self.t0 = done, now
-        if done >= total:
-            if self.last is not None or now - self.t0 > 2.0:
-                self._print(f"{self.unit} {done}/{total} (100 %) in {now - self.t0:.1f} s",
-                            done, total)
-            return
-        interval = self.TTY_INTERVAL_S if self.tty else self.FILE_INTERVAL_S
-        since = now - self.t0 if self.last is None else now - self.last
-        if since < (self.after_s if self.last is None else interval):
-            return
-        eta = self._rate_eta(done, total, now)
-        if not self.tty and not eta:  # a log line says how fast, or waits until it can
-            return
-        self._print(f"{self.unit} {done}/{total} ({100 * done / max(total, 1):.0f} %{eta})",
-                    done, total)
-        self.last = now
-
-    def _print(self, text: str, done: int, total: int) -> None:
-        if self.tty:
-            filled = int(30 * done / max(total, 1))
-            bar = "[" + "#" * filled + "." * (30 - filled) + "] "
-            print(f"\r\033[K  {bar}{text}", end="" if done < total else "\n", file=sys.stderr,
-                  flush=True)
-        else:
-            print(f"  {text}", file=sys.stderr, flush=True)
-
-    def _rate_eta(self, done: int, total: int, now: float) -> str:
-        elapsed = now - self.t0
-        n = done - (self.start or 0)
-        weights = self.weights if self.weights and len(self.weights) >= total else None
-        if weights:
-            est_done = sum(weights[self.start or 0:done])
-            scale = elapsed / est_done if n > 0 and est_done > 0 and elapsed > 0 else 1.0
-            return f", ETA {_eta(scale * sum(weights[done:total]))}"
-        prior = self.per_unit_s * (total - done) if self.per_unit_s else None
-        if n <= 0 or elapsed <= 0:  # nothing measured yet: the estimate, or nothing
-            return "" if prior is None else f", ETA {_eta(prior)} (estimated)"
-        rate = n / elapsed
-        eta = (total - done) / rate
-        if prior is not None:  # the estimate counts as PRIOR_UNITS units, measured ones win
-            eta = (self.PRIOR_UNITS * prior + n * eta) / (self.PRIOR_UNITS + n)
-        return f", {rate:.3g} {self.unit}/s, ETA {_eta(eta)}"
-
-
-def _eta(seconds: float) -> str:
-    from chiptwin.config.cost import format_seconds
-
-    return format_seconds(round(seconds))
 
 
 def entry() -> None:
