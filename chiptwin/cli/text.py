@@ -25,9 +25,9 @@ def columns() -> int:
 #: The label column of the terminal table: two spaces, 28 characters, one space.
 LABEL = 28
 
-DOCS = "the documentation: Getting started, the how-tos and the command reference"
 SEE_ALSO = ("`chiptwin list` names every bundled scenario and study; `chiptwin COMMAND --help` "
-            f"shows each command's examples; {DOCS}.")
+            "shows each command's examples. The documentation (Getting started, a gallery, "
+            "how-tos, this reference) is in docs/ of the source; bash scripts/docs.sh builds it.")
 
 #: Two or three example command lines per command: (command line, what it does).
 EXAMPLES: dict[str, list[tuple[str, str]]] = {
