@@ -27,7 +27,8 @@ LABEL = 28
 
 SEE_ALSO = ("`chiptwin list` names every bundled scenario and study; `chiptwin COMMAND --help` "
             "shows each command's examples. The documentation (Getting started, a gallery, "
-            "how-tos, this reference) is in docs/ of the source; bash scripts/docs.sh builds it.")
+            "how-tos, the command reference) is in docs/ of the source; bash scripts/docs.sh "
+            "builds it.")
 
 #: Two or three example command lines per command: (command line, what it does).
 EXAMPLES: dict[str, list[tuple[str, str]]] = {
