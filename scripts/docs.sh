@@ -3,12 +3,18 @@
 #
 #   bash scripts/docs.sh [extra sphinx-build arguments]
 #
-# 1. python -m pip install -e ".[docs]"   (Sphinx, myst-nb, furo, ipykernel)
+# 1. python -m pip install -e ".[docs]"   (Sphinx, myst-nb, furo, ipykernel, Playwright, pytest)
 # 2. sphinx-build -W --keep-going (not nitpicky: the docstrings' own cross-references are not yet
 #    clean): a broken link or reference in the pages, a docstring Sphinx cannot read or a
 #    tutorial cell that raises fails the build (every warning is listed first). The tutorials
 #    and the outputs page run at every build; the CLI, scenario and study references are
 #    generated from the code (docs/_ext/chiptwin_reference.py).
+# 3. The site as a reader's browser shows it: tests/docs/test_site.py opens every page in headless
+#    Chromium (Playwright, with Debian's chromium: installed here with apt-get when missing, as
+#    root or through passwordless sudo, as scripts/test.sh installs the RTL simulators; set
+#    CHIPTWIN_NO_APT=1 to skip) and fails on a console error, a broken image or local link, or a
+#    tutorial or gallery page without a figure. Without Chromium it skips, and fails under
+#    CI=true (.ci/run sets it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export PIP_DISABLE_PIP_VERSION_CHECK=1
@@ -17,7 +23,35 @@ PY="${PYTHON:-}"
 if [ -z "$PY" ]; then
     if command -v python >/dev/null 2>&1; then PY=python; else PY=python3; fi
 fi
+
+if ! command -v chromium >/dev/null 2>&1 && ! command -v chromium-browser >/dev/null 2>&1 &&
+        [ "${CHIPTWIN_NO_APT:-0}" != "1" ]; then
+    as_root=()
+    if [ "$(id -u)" != "0" ]; then
+        if command -v sudo >/dev/null 2>&1 && sudo -n true 2>/dev/null; then
+            as_root=(sudo -n)
+        else
+            as_root=(none)
+        fi
+    fi
+    if [ "${as_root[*]-}" = "none" ] || ! command -v apt-get >/dev/null 2>&1; then
+        echo "docs.sh: cannot install chromium (no apt-get, or not root and no sudo);" \
+             "the browser check will skip (or fail with CI=true)" >&2
+    else
+        echo "docs.sh: installing chromium with apt-get (the browser check of the site)" >&2
+        export DEBIAN_FRONTEND=noninteractive
+        if ! { "${as_root[@]}" apt-get update -qq >/dev/null &&
+               "${as_root[@]}" apt-get install -y -qq --no-install-recommends chromium \
+                   >/dev/null; }; then
+            echo "docs.sh: apt-get could not install chromium" >&2
+        fi
+    fi
+fi
+
 "$PY" -m pip install -q -e ".[docs]"
 start=$(date +%s)
 "$PY" -m sphinx -b html -W --keep-going -q docs docs/_build/html "$@"
 echo "docs.sh: built docs/_build/html/index.html in $(( $(date +%s) - start )) s" >&2
+start=$(date +%s)
+CHIPTWIN_DOCS_BUILT=1 "$PY" -m pytest tests/docs -q -p no:cacheprovider
+echo "docs.sh: every page checked in Chromium in $(( $(date +%s) - start )) s" >&2

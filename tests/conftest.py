@@ -147,6 +147,7 @@ SLOW = {
     "tests/characterize/test_twin.py",
     "tests/study/test_bundled.py",  # the `frame_memory_result` study
     "tests/study/test_outputs.py",
+    "tests/docs/test_site.py",  # every built page in Chromium (skips when the site is not built)
     # whole runs, traced memory, sweeps
     "tests/config/test_budget.py::test_memory_estimate_is_above_what_a_run_holds",
     "tests/config/test_budget.py::test_footprint_limit_converges",

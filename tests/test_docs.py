@@ -73,6 +73,8 @@ def test_named_scenarios_and_studies_exist(path):
     #: names the how-to pages invent for the reader's own files
     examples = {"my_scene", "my_study"}
     missing = {n for n in _scenario_names(text) - examples if n not in scenarios}
+    # `chiptwin validate` takes a study too
+    missing -= set(re.findall(r"chiptwin validate ([a-z0-9_]+)\b(?![./])", text)) & studies
     named_studies = set(re.findall(r"chiptwin study ([a-z0-9_]+)\b(?![./])", text))
     named_studies |= set(re.findall(r"run_study\(\"([A-Za-z0-9_]+)\"", text))
     named_studies |= set(re.findall(r"study `([a-z0-9_]+)`", text))
@@ -106,7 +108,7 @@ def test_generated_cli_reference_matches_help():
     text = REF.cli_markdown()
     for command, parser in COMMANDS.items():
         section = text.split(f"## `chiptwin {command}`", 1)[1].split("\n## ", 1)[0]
-        listed = set(re.findall(r"`(--[a-z][a-z-]*)`", section))
+        listed = set(re.findall(r"^`(--[a-z][a-z-]*)[ `]", section, flags=re.M))
         helped = set(re.findall(r"(--[a-z][a-z-]*)", parser.format_help()))
         assert listed <= helped, (command, listed - helped)
         assert listed == _flags(command) - {"-h", "--help"}, (command, listed)
@@ -117,7 +119,7 @@ def test_generated_scenario_reference_lists_every_key():
     for key in REF.scenario_keys():
         section, name = key.rsplit(".", 1)
         block = text.split(f"## `[{section}]`", 1)[1].split("\n## ", 1)[0]
-        assert f"| `{name}` |" in block, key
+        assert f"\n`{name}`\n: " in block, key
 
 
 def test_generated_study_reference_lists_every_key():
@@ -126,7 +128,7 @@ def test_generated_study_reference_lists_every_key():
 
     text = REF.study_markdown()
     for key in [*STUDY_KEYS, *AXIS_KEYS, *CATALOGUE]:
-        assert f"| `{key}` |" in text, key
+        assert f"\n`{key}`\n: " in text, key
 
 
 _LINK = re.compile(r"\]\(([^)\s]+)\)")
@@ -145,3 +147,18 @@ def test_local_links_resolve(path):
         if not (path.parent / file).exists():
             broken.append(target)
     assert not broken, f"{path}: broken links {broken}"
+
+
+def test_generated_reference_reads_as_a_person_would_type_it():
+    """No raw machine bounds (2^63 − 1, 1.67772e+07), every flag as code (so a copied command
+    keeps its two hyphens), ``<...>`` escaped so Markdown does not read it as a tag, and an
+    example file at the top of the two file references."""
+    cli, scenario, study = REF.cli_markdown(), REF.scenario_markdown(), REF.study_markdown()
+    for text in (cli, scenario, study):
+        assert "9223372036854775807" not in text and "e+" not in text
+        assert not re.search(r"(?<!\\)<[a-z]", text.split("-->", 1)[1]), "an unescaped tag"
+    assert "`--set KEY=VALUE`" in cli and "`--out OUT`" in cli
+    assert "≥ 0" in scenario and "−2^24 … 2^24" in scenario
+    assert scenario.index("```toml") < scenario.index("## `[scenario]`")
+    assert study.index("```toml") < study.index("## `[study]`")
+    assert REF._num(16777216) == "2^24" and REF._num(1e-9) == "1e-9" and REF._num(4096) == "4,096"

@@ -40,17 +40,22 @@ def bundled_scenarios_folder() -> Path:
 
 
 def resolve_study(name: str) -> Path:
-    """A path as given, or a bundled study's file."""
+    """A path as given, or a bundled study's file (see :func:`resolve_scenario`)."""
     path = Path(name)
-    if path.exists() or path.suffix == ".toml":
+    if path.is_file() or path.suffix == ".toml":
         return path
     return bundled_studies().get(name, path)
 
 
 def resolve_scenario(name: str) -> Path:
-    """A path as given, or a bundled scenario's file."""
+    """A path as given, or a bundled scenario's file.
+
+    One rule: a name that is a file (or ends in ``.toml``) is that file; any other name is a
+    bundled scenario's. A folder of the same name (``chiptwin run pyro_1fmol --out pyro_1fmol``
+    makes one) does not hide the bundled scenario.
+    """
     path = Path(name)
-    if path.exists() or path.suffix == ".toml":
+    if path.is_file() or path.suffix == ".toml":
         return path
     return bundled_scenarios().get(name, path)
 

@@ -7,6 +7,7 @@ counts its samplers would be handed, the chip model's time span.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import MISSING
 
@@ -20,7 +21,7 @@ from chiptwin.config.budget import (
 )
 from chiptwin.config.cost import check_wall_time
 from chiptwin.config.fields import ScenarioError
-from chiptwin.config.schema import Scenario
+from chiptwin.config.schema import CLOCK_MAX_HZ, Scenario
 from chiptwin.constants import Q_E, s_to_ticks
 from chiptwin.dsp.fixed import accumulator_bits_needed
 
@@ -467,7 +468,45 @@ def _timing(s: Scenario) -> None:
         _fail(s, "chip.timing.frame_period_s", s.chip.timing.frame_period_s,
               f"must be ≥ reset + integration + {s.chip.samples_per_frame} conversions "
               f"= {sch.busy_ns} ns (t_int_s {s.chip.timing.t_int_s:g} s, one conversion "
-              f"{sch.t_conv_ns} ns)")
+              f"{sch.t_conv_ns} ns); {_schedule_fix(s, sch)}")
+
+
+def _schedule_fix(s: Scenario, sch) -> str:
+    """The one key that makes a frame schedule fit, with the value that does: the smallest ADC
+    clock (3 significant digits, rounded up) when the conversions are what overruns, else the
+    longest integration."""
+    adc, n = s.chip.adc, s.chip.samples_per_frame
+    spare_ns = sch.frame_period_ns - sch.t_reset_ns - sch.t_int_ns  # left for the conversions
+    cycles = adc.cycles_per_conversion or 2**adc.bits
+    if spare_ns >= n:
+        clock = _round_up(cycles * 1e9 / (spare_ns // n))
+        while s_to_ticks(cycles / clock) * n > spare_ns:  # the tick rounding may need a bit more
+            clock = _round_up(clock * 1.001)
+        if clock <= CLOCK_MAX_HZ:
+            return (f"set chip.adc.clock_hz ≥ {_hz(clock)} (now {_hz(adc.clock_hz, short=True)}, "
+                    f"{cycles} cycles a conversion), or lengthen the frame period")
+    t_int_ns = sch.frame_period_ns - sch.t_reset_ns - n * sch.t_conv_ns
+    if t_int_ns > 0:
+        digits = 10 ** (int(math.floor(math.log10(t_int_ns))) - 3)  # 4 digits, rounded down
+        return (f"set chip.timing.t_int_s ≤ {t_int_ns // digits * digits * 1e-9:.4g} (now "
+                f"{s.chip.timing.t_int_s:g}), or lengthen the frame period")
+    return "lengthen the frame period"
+
+
+def _hz(f: float, short: bool = False) -> str:
+    """A clock as a TOML value and in words: 26300000.0 → "26.3e6 (26.3 MHz)"; ``short``:
+    "26.3 MHz"."""
+    for exp, unit in ((9, "GHz"), (6, "MHz"), (3, "kHz")):
+        if f >= 10.0**exp:
+            v = f"{round(f / 10.0**exp, 6):g}"
+            return f"{v} {unit}" if short else f"{v}e{exp} ({v} {unit})"
+    return f"{f:g} Hz"
+
+
+def _round_up(x: float) -> float:
+    """Up to 3 significant digits: 41,020 → 41,100."""
+    scale = 10.0 ** (math.floor(math.log10(x)) - 2)
+    return math.ceil(x / scale - 1e-9) * scale
 
 
 #: The ``[chip.adc]`` keys of the converter as built, and the one a pixel-level ValueError names.

@@ -281,11 +281,14 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
     chip = summary["chip"]
     rows.append(("chip", f"{chip['frames']} frames, {chip['adc_bits']}-bit ADC, memory peak "
                  f"{chip['memory_peak_frames']} frames of {chip['memory_capacity_frames']}, "
-                 f"DSP utilisation {chip['dsp_utilization']:.3g}, overflows {chip['overflows']}"))
+                 f"DSP utilisation {chip['dsp_utilization']:.3g}, "
+                 f"{chip['overflows'] or 'no'} frame(s) dropped"))
     rows += [(f"flag: {f}", "yes") for f in chip["flags"]]
     dsp = summary["dsp"]
     if dsp["level"] != "float":
-        rows.append((f"DSP ({dsp['level']})", f"overflow events {dsp['overflow_total']}"))
+        rows.append((f"DSP ({dsp['level']})", "overflow events: " + ", ".join(
+            f"{n} {word}" for n, word in ((dsp["overflow_total"]["sat"], "saturated"),
+                                          (dsp["overflow_total"]["wrap"], "wrapped")))))
     if "error_vs_float" in dsp:
         e = dsp["error_vs_float"]
         sqnr = "exact" if e["sqnr_db"] is None else f"{e['sqnr_db']:.1f} dB"
@@ -340,9 +343,9 @@ def _optics_rows(o: dict[str, Any] | None) -> list[tuple[str, str]]:
               else "none (< −120 dB)")
         return f"own pixel {f['own_pixel']:.4g} of the site's light, cross-talk {db}"
 
-    rows = [(f"optics ({o['level']}, {o['emitter']} emitter)", light(o))]
+    rows = [("optics", f"{o['level']} level, {o['emitter']} emitter: {light(o)}")]
     if o.get("laws_differ_beyond_budget"):
-        rows.append(("collected by the diodes, per emitter law", ", ".join(
+        rows.append(("collected, per emitter law", ", ".join(
             f"{law} {v:.4g}" for law, v in o["collected_fraction"].items())))
     fp = o.get("faceplate")
     if fp:

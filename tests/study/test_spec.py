@@ -3,6 +3,8 @@ nothing written; axes expand as documented."""
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from chiptwin.cli import main, resolve_scenario
@@ -114,4 +116,5 @@ def test_validate_checks_every_point_of_a_study(tmp_path, capsys):
     assert main(["validate", str(path)]) == 0
     out = capsys.readouterr().out
     assert "3 points × 3 replicates" in out
-    assert "invalid point {'chip.adc.bits': 24}" in out and "1 of 3 points" in out
+    assert "1 of 3 points are inconsistent" in out
+    assert re.search(r"^ +1 × [\w.]+: ", out, flags=re.M), out

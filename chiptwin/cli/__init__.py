@@ -1,5 +1,9 @@
 """The ``chiptwin`` command: a thin layer over :func:`chiptwin.twin.runner.run`.
 
+Here the parser and what each command does; what it prints besides the numbers (help texts,
+tables, close names) in :mod:`chiptwin.cli.text`, its progress line in
+:mod:`chiptwin.cli.progress`.
+
 Exit codes: 0 success, 2 bad input (one clear line, no traceback), 1 internal error, 130 on
 Ctrl-C and 143 on SIGTERM (what ``kill``, systemd, Slurm and Kubernetes send): both stop the
 command the same way, one line, everything a study stored kept, its workers gone.
@@ -13,14 +17,25 @@ import os
 import shutil
 import signal
 import sys
+import textwrap
 import threading
-import time
 import traceback
 from collections.abc import Sequence
 from pathlib import Path
 
 from chiptwin import __version__
 from chiptwin._numba import announce_compiles
+from chiptwin.cli.progress import Progress as _Progress
+from chiptwin.cli.text import (
+    WIDTH,
+    epilog,
+    first_sentences,
+    fit,
+    listing,
+    opening_comment,
+    paragraph,
+    table,
+)
 from chiptwin.config import ScenarioError, load_scenario
 from chiptwin.config.catalog import (
     bundled_scenarios,
@@ -31,29 +46,55 @@ from chiptwin.config.catalog import (
 )
 
 
-class _Parser(argparse.ArgumentParser):
-    argv: Sequence[str] = ()
+class UsageError(Exception):
+    """A command line argparse cannot read: the parser whose usage to show, and why."""
 
+    def __init__(self, parser: argparse.ArgumentParser, message: str) -> None:
+        super().__init__(message)
+        self.parser = parser
+
+
+class _Parser(argparse.ArgumentParser):
     def error(self, message: str):  # argparse's default exits; we want an exit code
-        raise ScenarioError("chiptwin", "(arguments)", " ".join(self.argv), message)
+        raise UsageError(self, message)
+
+
+def _command(sub, name: str, help: str, **kw) -> argparse.ArgumentParser:
+    """A sub-command whose ``--help`` ends with its examples and where to read more."""
+    return sub.add_parser(name, help=help, description=paragraph(help[0].upper() + help[1:] + "."),
+                          epilog=epilog(name), formatter_class=_Formatter, **kw)
+
+
+class _Formatter(argparse.RawDescriptionHelpFormatter):
+    """Keeps the epilog's example columns; wraps the rest to :data:`chiptwin.cli.text.WIDTH`."""
+
+    def __init__(self, prog: str) -> None:
+        super().__init__(prog, width=WIDTH, max_help_position=32)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="chiptwin", description="Digital twin of a CMOS bioluminescence chip.")
+    p = _Parser(prog="chiptwin", description=paragraph(
+                "Digital twin of a CMOS bioluminescence detection chip: assay light, optics, "
+                "pixels, ADCs, frame memory and on-chip DSP, with the SNR, calls and limit of "
+                "detection they give."), epilog=epilog("chiptwin"),
+                formatter_class=_Formatter)
     p.add_argument("--version", action="version", version=f"chiptwin {__version__}")
-    sub = p.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("run", help="run a scenario and write its outputs")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    r = _command(sub, "run", "run a scenario and write its outputs")
     _scenario_args(r)
-    r.add_argument("--out", help="output folder (default: out/<scenario name>)")
+    r.add_argument("--out", help="output folder (default: out/SCENARIO_NAME)")
     r.add_argument("--quiet", action="store_true", help="no progress, no table")
-    v = sub.add_parser("validate", help="check a scenario file without running it")
+    v = _command(sub, "validate", "check a scenario or study file without running it, and "
+                 "estimate its wall time")
     _scenario_args(v)
-    sub.add_parser("list", help="list the bundled scenarios and studies")
-    d = sub.add_parser("dsp-report", help="fixed-point DSP vs float on a scenario's data")
+    v.add_argument("--verbose", action="store_true",
+                   help="a study: every inconsistent point with its full reason")
+    _command(sub, "list", "list the bundled scenarios and studies")
+    d = _command(sub, "dsp-report", "fixed-point DSP vs float on a scenario's data")
     _scenario_args(d)
     d.add_argument("--json", help="also write the report as JSON to this file")
-    ch = sub.add_parser("characterize", help="EMVA 1288 datasheet of a scenario's chip, or of "
-                        "the twin a datasheet configures")
+    ch = _command(sub, "characterize", "EMVA 1288 datasheet of a scenario's chip, or of the "
+                  "twin a datasheet configures")
     ch.add_argument("scenario", nargs="?", help="a TOML file, or the name of a bundled scenario "
                     "(default with --from: pyro_1fmol)")
     ch.add_argument("--from", dest="from_datasheet", metavar="FILE.json",
@@ -62,8 +103,8 @@ def build_parser() -> argparse.ArgumentParser:
     ch.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="override a scenario value (repeatable)")
     ch.add_argument("--seed", type=int, help="replace scenario.seed")
-    ch.add_argument("--out", help="output folder (default: out/<scenario name>-emva1288, "
-                    "with --adc out/<scenario name>-adc1241)")
+    ch.add_argument("--out", help="output folder (default: out/SCENARIO_NAME-emva1288, "
+                    "with --adc out/SCENARIO_NAME-adc1241)")
     ch.add_argument("--adc", action="store_true", help="the ADC's own IEEE 1241 bench instead: "
                     "every converter as built, driven at its input (adc1241.json)")
     ch.add_argument("--adc-dnl-sigma", type=float, default=0.1, metavar="LSB",
@@ -72,19 +113,19 @@ def build_parser() -> argparse.ArgumentParser:
                     help="with --adc: most converters measured, a grid over the array "
                     "(default 256)")
     ch.add_argument("--quiet", action="store_true", help="no progress, no table")
-    la = sub.add_parser("ladder", help="speed against error: every fidelity level of a scene "
-                        "against the most faithful combination")
+    la = _command(sub, "ladder", "speed against error: every fidelity level of a scene "
+                  "against the most faithful combination")
     _scenario_args(la)
-    la.add_argument("--out", help="output folder (default: out/<scenario name>_ladder)")
+    la.add_argument("--out", help="output folder (default: out/SCENARIO_NAME_ladder)")
     la.add_argument("--replicates", type=int, default=5,
                     help="seeds per level (default 5; common random numbers across levels)")
     la.add_argument("--json", help="also write ladder.json to this file")
     la.add_argument("--reference", action="append", default=[], metavar="STAGE=LEVEL",
                     help="pin a level of the reference, e.g. --reference dsp=fixed (repeatable;"
                          " default: the most faithful level the scene accepts)")
-    st = sub.add_parser("study", help="run a budget study: axes × replicates → the answer")
+    st = _command(sub, "study", "run a budget study: axes × replicates → the answer")
     st.add_argument("study", help="a study TOML file, or the name of a bundled study")
-    st.add_argument("--out", help="output folder (default: out/<study name>); an existing one "
+    st.add_argument("--out", help="output folder (default: out/STUDY_NAME); an existing one "
                     "resumes the study")
     st.add_argument("--workers", type=int, help="local processes (default: every core)")
     st.add_argument("--scheduler", help='a Dask scheduler address, or "local" for a Dask '
@@ -124,9 +165,19 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _main(argv: Sequence[str] | None) -> int:
     try:
         parser = build_parser()
-        parser.argv = list(sys.argv[1:] if argv is None else argv)
-        args = parser.parse_args(parser.argv)
-        return _dispatch(args)
+        argv = list(sys.argv[1:] if argv is None else argv)
+        if not argv:  # a bare `chiptwin`: what it does and how to start, on stderr
+            print(parser.format_help(), file=sys.stderr, end="")
+            return 2
+        return _dispatch(parser.parse_args(argv))
+    except UsageError as exc:
+        bad = exc.parser
+        if bad is parser and argv and argv[0] in _commands(parser):  # e.g. an unknown flag
+            bad = _commands(parser)[argv[0]]
+        print(bad.format_usage(), end="", file=sys.stderr)
+        print(f"{bad.prog}: error: {exc}\n(`{bad.prog} --help` shows the options and "
+              "examples)", file=sys.stderr)
+        return 2
     except ScenarioError as exc:
         print(f"chiptwin: error: {exc}", file=sys.stderr)
         return 2
@@ -147,6 +198,12 @@ def _main(argv: Sequence[str] | None) -> int:
         return 1
 
 
+def _commands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    """The sub-commands' parsers, by name."""
+    return next(a.choices for a in parser._actions
+                if isinstance(a, argparse._SubParsersAction))
+
+
 def _working(progress: _Progress | None):
     """The context of a command's long work, which reports ``progress``: the first kernel numba
     compiles in it is announced (:func:`chiptwin._numba.announce_compiles`), so a first run's
@@ -163,26 +220,21 @@ def _say_compiling() -> None:
 
 def _dispatch(args: argparse.Namespace) -> int:
     if args.command == "list":
-        for name, path in sorted(bundled_scenarios().items()):
-            print(f"{name:24s} {_first_comment(path)}")
-        print("\nstudies (chiptwin study NAME):")
-        for name, path in sorted(bundled_studies().items()):
-            print(f"{name:24s} {_first_comment(path)}")
-        return 0
+        return _list()
     if args.command == "study":
         return _study(args)
     if args.command == "characterize":
         return _characterize(args)
     if args.command == "validate" and _is_study(args.scenario):
-        return _validate_study(resolve_study(args.scenario))
-    path = resolve_scenario(args.scenario)
+        return _validate_study(args.scenario, args.verbose)
+    path = _scenario_path(args.scenario, studies_too=args.command == "validate")
     scenario = load_scenario(path, args.set, args.seed)
     if args.command == "validate":
         from chiptwin.config.consistency import scenario_warnings
 
         for warning in scenario_warnings(scenario):
             print(f"chiptwin: warning: {warning}", file=sys.stderr)
-        print(f"{path}: ok ({scenario.scenario.name})")
+        print(f"{args.scenario}: ok ({scenario.scenario.name}{_bundled_note(args.scenario)})")
         from chiptwin.config.cost import describe as describe_cost
 
         print("\n".join(describe_cost(scenario)))
@@ -209,9 +261,9 @@ def _dispatch(args: argparse.Namespace) -> int:
         result = run(scenario, progress=progress)
         out = write_outputs(result, out)
     if not args.quiet:
-        for key, value in headline(result.summary):
-            print(f"  {key:28s} {value}")
-        print(f"  outputs in {out}/ (summary.json, arrays.npz, report.md, plots)")
+        print(table(headline(result.summary)))
+        print(table([("outputs in", f"{_shown(out)}/ (summary.json, arrays.npz, report.md, "
+                                    "plots)")]))
     return 0
 
 
@@ -241,7 +293,7 @@ def _characterize(args: argparse.Namespace) -> int:
     if args.scenario is None and args.from_datasheet is None:
         raise ScenarioError("chiptwin", "characterize", "(nothing)",
                             "needs a SCENARIO, --from FILE.json, or both")
-    path = resolve_scenario(args.scenario or "pyro_1fmol")
+    path = _scenario_path(args.scenario or "pyro_1fmol")
     datasheet = args.from_datasheet
     if datasheet:
         from chiptwin.config.datasheet import bundled_datasheet
@@ -260,8 +312,8 @@ def _characterize(args: argparse.Namespace) -> int:
         result = characterize(scenario, progress=progress, datasheet_in=datasheet)
         out = result.write(out)
     if not args.quiet:
-        print("\n".join(headline(result.datasheet)))
-        print(f"  outputs in {out}/ ({JSON_NAME}, datasheet.md, plots)")
+        print(fit(headline(result.datasheet)))
+        print(f"  outputs in {_shown(out)}/ ({JSON_NAME}, datasheet.md, plots)")
     return 0
 
 
@@ -285,8 +337,8 @@ def _characterize_adc(scenario, args: argparse.Namespace) -> int:
         bench = adc_bench(scenario, settings=settings, progress=progress)
     out = bench.write(out)
     if not args.quiet:
-        print("\n".join(headline(bench.to_json())))
-        print(f"  {bench.wall_time_s:.1f} s; outputs in {out}/ ({JSON_NAME}, adc1241.npz, "
+        print(fit(headline(bench.to_json())))
+        print(f"  {bench.wall_time_s:.1f} s; outputs in {_shown(out)}/ ({JSON_NAME}, adc1241.npz, "
               "adc1241.md, plots)")
     return 0
 
@@ -303,19 +355,99 @@ def _is_study(name: str) -> bool:
         return False  # the scenario loader reports it
 
 
-def _validate_study(path: Path) -> int:
-    """Every point checked, as ``chiptwin study`` does before its first run."""
+def _validate_study(name: str, verbose: bool = False) -> int:
+    """Every point checked, as ``chiptwin study`` does before its first run: the inconsistent
+    points grouped by the key that refuses them, and the estimated wall time."""
+    from chiptwin.cli.text import invalid_summary
+    from chiptwin.config.cost import ESTIMATE_FACTOR, format_seconds
     from chiptwin.study import load_study
-    from chiptwin.study.engine import Plan
+    from chiptwin.study.engine import Plan, estimate_s
 
-    plan = Plan(load_study(path, resolve_scenario))
+    plan = Plan(load_study(_study_path(name), resolve_scenario))
+    study = plan.study
     n, bad = len(plan.points), len(plan.invalid)
-    print(f"{path}: ok ({plan.study.name}: {n} points × {plan.study.replicates} replicates, "
-          f"{len(plan.references)} reference point(s), search {plan.study.search})")
-    for pid, message in plan.invalid.items():
-        print(f"  invalid point {plan.by_id[pid].params}: {message}")
+    print(f"{study.name}: ok ({n} points × {study.replicates} replicates, "
+          f"{len(plan.references)} reference point(s), search {study.search}"
+          f"{_bundled_note(name, study=True)})")
     if bad:
-        print(f"  {bad} of {n} points are inconsistent; they will be recorded as invalid")
+        print(f"  {bad} of {n} points are inconsistent and will be recorded as invalid, not run:")
+        print("\n".join(invalid_summary(plan.invalid.values())))
+        if verbose:
+            for pid, message in plan.invalid.items():
+                params = ", ".join(f"{k}={v}" for k, v in plan.by_id[pid].params.items())
+                reason = message.split("]: ", 1)[-1]
+                print(table([(f"point {params}", reason)]))
+        else:
+            print("  (every point with its full reason: --verbose)")
+    per_row, rows = estimate_s(plan)
+    rows -= bad * study.replicates  # an invalid point's rows are recorded, not run
+    workers = os.cpu_count() or 1
+    print(textwrap.fill(
+        f"estimated ≈ {format_seconds(per_row * rows / workers)} on {workers} local "
+        f"process(es): {'at most ' if study.search != 'grid' else ''}{rows} rows of "
+        f"≈ {format_seconds(per_row)} each (chiptwin.config.cost; within "
+        f"{ESTIMATE_FACTOR:g}× either way)",
+        WIDTH, initial_indent="  ", subsequent_indent="    "))
+    return 0
+
+
+def _scenario_path(name: str, studies_too: bool = False) -> Path:
+    """A scenario file as given, or a bundled scenario's; an unknown name is refused with the
+    closest bundled names (before the loader's "not a readable file")."""
+    path = resolve_scenario(name)
+    if not path.exists():
+        from chiptwin.cli.text import unknown_name
+
+        known = [*bundled_scenarios(), *(bundled_studies() if studies_too else ())]
+        raise _refusal(unknown_name(name, "scenario or study" if studies_too else "scenario",
+                                    known))
+    return path
+
+
+def _study_path(name: str) -> Path:
+    """A study file as given, or a bundled study's, as :func:`_scenario_path`."""
+    path = resolve_study(name)
+    if not path.exists():
+        from chiptwin.cli.text import unknown_name
+
+        raise _refusal(unknown_name(name, "study", bundled_studies()))
+    return path
+
+
+def _shown(path: Path) -> str:
+    """An output folder as the user would type it: relative when it is under this folder."""
+    try:
+        return str(Path(path).resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
+def _refusal(message: str) -> ScenarioError:
+    """A refusal of the command line itself (no file, no key to name): printed as it is."""
+    exc = ScenarioError("chiptwin", "(command line)", None, message)
+    exc.args = (message,)
+    return exc
+
+
+def _bundled_note(name: str, study: bool = False) -> str:
+    """", bundled" when a name (not a path) was read from the package's own copy."""
+    bundled = bundled_studies() if study else bundled_scenarios()
+    return ", bundled" if Path(name).stem in bundled and not Path(name).is_file() else ""
+
+
+def _list() -> int:
+    folder = bundled_scenarios_folder()
+    scenarios = {name: first_sentences(opening_comment(p.read_text(encoding="utf-8")))
+                 for name, p in sorted(bundled_scenarios().items())}
+    studies = {name: first_sentences(opening_comment(p.read_text(encoding="utf-8")))
+               for name, p in sorted(bundled_studies().items())}
+    print("scenarios (chiptwin run NAME; chiptwin validate NAME):")
+    print(listing(scenarios))
+    print("\nstudies (chiptwin study NAME):")
+    print(listing(studies))
+    print("\n" + "\n".join(textwrap.wrap(
+        f"A bundled name reads the file in {folder}; a path (my_chip.toml, ./pyro_1fmol.toml) "
+        "reads that file. Copy one to start your own.", WIDTH)))
     return 0
 
 
@@ -327,7 +459,7 @@ def _study(args: argparse.Namespace) -> int:
 
     if args.workers is not None and not 1 <= args.workers <= 1024:
         raise ScenarioError("chiptwin", "--workers", args.workers, "must be in [1, 1024]")
-    study = load_study(resolve_study(args.study), resolve_scenario)
+    study = load_study(_study_path(args.study), resolve_scenario)
     out = check_out_dir(args.out or Path("out") / study.name, marker=DB_NAME)
     with output_lock(out):
         new = not out.exists()
@@ -344,11 +476,10 @@ def _study(args: argparse.Namespace) -> int:
                 shutil.rmtree(out, ignore_errors=True)
             raise
         write_study_outputs(result, out)
-    for line in answer_lines(result.summary):
-        print(line)
+    print(fit(answer_lines(result.summary)))
     runs = result.summary["runs"]
     print(f"  {runs['total']} runs ({runs['computed']} computed now, {runs['resumed']} resumed) "
-          f"in {result.summary['wall_time_s']:.1f} s; outputs in {out}/ (study.json, "
+          f"in {result.summary['wall_time_s']:.1f} s; outputs in {_shown(out)}/ (study.json, "
           "results.csv, results.sqlite, report.md)")
     return 0
 
@@ -403,7 +534,7 @@ def _ladder(scenario, args: argparse.Namespace) -> int:
         write_ladder(ladder, out)
     if args.json:
         Path(args.json).write_text(json.dumps(ladder, indent=1) + "\n")
-    print(f"  outputs in {out}/ (ladder.json, ladder.png, ladder.md)")
+    print(f"  outputs in {_shown(out)}/ (ladder.json, ladder.png, ladder.md)")
     return 0
 
 
@@ -425,67 +556,6 @@ def _check_json_path(json_path: str) -> None:
     if target.is_dir() or not target.parent.is_dir():
         raise ScenarioError("chiptwin", "--json", json_path,
                             "must be a file path in an existing folder")
-
-
-def _first_comment(path: Path) -> str:
-    for line in path.read_text().splitlines():
-        if line.startswith("#"):
-            return line.lstrip("# ").strip()
-    return ""
-
-
-class _Progress:
-    """Progress on stderr once work has taken ``after_s`` seconds, then every second: a bar with
-    the rate and the time left on a terminal, a plain line off one.
-
-    With ``weights`` (the estimated seconds of each unit, in order: :mod:`chiptwin.config.cost`)
-    the time left is the estimate of the units left scaled by measured / estimated so far, which
-    holds steady when units differ in cost (a ladder's levels); without, the measured rate. No rate
-    is shown before a unit has finished.
-    """
-
-    PRIOR_UNITS = 4
-
-    def __init__(self, unit: str = "frames", after_s: float = 1.0,
-                 weights: Sequence[float] | None = None) -> None:
-        self.unit = unit
-        self.t0 = time.perf_counter()
-        self.last = self.t0 + after_s
-        self.weights = list(weights) if weights else None
-        self.per_unit_s: float | None = None  # one estimate for every unit (a study's rows)
-        self.start: int | None = None  # units already done when the first call came (resumed)
-
-    def __call__(self, done: int, total: int) -> None:
-        now = time.perf_counter()
-        if self.start is None:  # measured from the first unit on (not the start-up before it)
-            self.start, self.t0 = done, now
-        if now - self.last >= 1.0 or (done == total and now - self.t0 > 2.0):
-            self.last = now
-            tty = sys.stderr.isatty()
-            bar, start = "", "\r" if tty else ""
-            if tty:
-                filled = int(30 * done / max(total, 1))
-                bar = "[" + "#" * filled + "." * (30 - filled) + "] "
-            print(f"{start}  {bar}{self.unit} {done}/{total} "
-                  f"({100 * done / max(total, 1):.0f} %{self._rate_eta(done, total, now)})",
-                  end="" if tty and done < total else "\n", file=sys.stderr, flush=True)
-
-    def _rate_eta(self, done: int, total: int, now: float) -> str:
-        elapsed = now - self.t0
-        n = done - (self.start or 0)
-        weights = self.weights if self.weights and len(self.weights) >= total else None
-        if weights:
-            est_done = sum(weights[self.start or 0:done])
-            scale = elapsed / est_done if n > 0 and est_done > 0 and elapsed > 0 else 1.0
-            return f", ETA {scale * sum(weights[done:total]):.0f} s"
-        prior = self.per_unit_s * (total - done) if self.per_unit_s else None
-        if n <= 0 or elapsed <= 0:  # nothing measured yet: the estimate, or nothing
-            return "" if prior is None else f", ETA {prior:.0f} s (estimated)"
-        rate = n / elapsed
-        eta = (total - done) / rate
-        if prior is not None:  # the estimate counts as PRIOR_UNITS units, measured ones win
-            eta = (self.PRIOR_UNITS * prior + n * eta) / (self.PRIOR_UNITS + n)
-        return f", {rate:.3g}/s, ETA {eta:.0f} s"
 
 
 def entry() -> None:
