@@ -12,7 +12,8 @@ from chiptwin.fidelity.ladder import plan, run_ladder
 from chiptwin.twin.levels import CachedEstimates, reference_levels, with_levels
 from tests.conftest import REDUCED, SCENARIOS, SMALL
 
-AS_BUILT = ["chip.adc.comparator_noise_lsb=0.5", "chip.adc.inl_max_lsb=2"]
+AS_BUILT = ["chip.adc.comparator_noise_uV=0", "chip.adc.comparator_noise_lsb=0.5",
+            "chip.adc.inl_max_lsb=2"]
 CHEAP_REFERENCE = {"kinetics": "closed_form", "photons": "expected", "optics": "psf",
                    "dsp": "float"}
 #: The small scenario's 8 key flows of 4 s (36 frames, not 284): the ladder runs every rung (the
@@ -61,8 +62,9 @@ def test_ideal_level_zeroes_every_as_built_effect(tmp_path):
 
 def test_auto_keeps_as_built_within_a_tight_budget_and_takes_ideal_within_a_loose_one():
     """pyro_1fmol (reduced, 8 key flows of 4 s: 52 frames) with comparator noise and INL: the
-    ideal converter misses the comparator's noise (SNR ≈ 74 % too high; 58 % with 60 s flows).
-    A budget of 1 % keeps the converter as built; one of 90 % lets auto take the ideal one; both
+    ideal converter misses the comparator's noise (power SNR ≈ 90 % too high on the scene's
+    isotropic light; 62 % with 60 s flows). A budget of 1 % keeps the converter as built; one of
+    100 % (the largest allowed) lets auto take the ideal one; both
     say why in the summary's reasons. (The calibrations are expected-level runs: no draws, the
     same pick every time.)"""
     base = [*REDUCED["pyro_1fmol"], "assay.flow_period_s=4.0", "run.duration_s=52.0", *AS_BUILT,
@@ -73,7 +75,7 @@ def test_auto_keeps_as_built_within_a_tight_budget_and_takes_ideal_within_a_loos
     assert choice.levels["adc"] == "as_built"
     reason = choice.summary()["fidelity_reason"]["adc"]
     assert "not ideal" in reason and "comparator_noise_lsb 0.5" in reason
-    loose = load_scenario(path, [*base, "run.error_budget.snr_rel=0.9"])
+    loose = load_scenario(path, [*base, "run.error_budget.snr_rel=1.0"])
     resolved, choice = resolve(loose)
     assert choice.levels["adc"] == "ideal"
     assert choice.summary()["fidelity_reason"]["adc"].startswith("ideal: calibration")

@@ -71,7 +71,7 @@ def test_reference_is_the_most_faithful_level_the_scene_accepts():
     s = load_scenario(SCENARIOS / "atp_glow.toml")
     ref = reference_levels(s)
     assert ref["kinetics"] == "closed_form"  # the cascade models pyrosequencing only
-    assert ref["photons"] == "events" and ref["optics"] == "psf"
+    assert ref["photons"] == "events" and ref["optics"] == "raytrace"  # isotropic, traced
     assert [r.stage for r in plan(s)][0] == "reference"
 
 
