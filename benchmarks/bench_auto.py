@@ -7,9 +7,12 @@ the RTL equals bit for bit, unless ``--rtl``) on the same seeds, warm, in this p
 
 Printed per scenario: the levels picked, the median warm wall time of each and their ratio, the
 time ``auto`` itself took (its calibrations, first and cached), the estimated error, and the
-error measured against the reference: the mean over seeds of each site's relative difference
-(systematic, with its 95 % half-width; the two sides may draw differently, so each seed's
-difference holds noise) and the largest per-seed difference (noise included).
+error measured against the reference on the same seeds: per site the ratio of the means over
+the seeds minus 1 (signal and power SNR), with its 95 % delta-method Student-t half-width
+(:mod:`chiptwin.fidelity.compare`; never a mean of per-seed ratios, which a noisy reference
+biases upward by its squared coefficient of variation), for the site whose interval reaches
+furthest; and whether that shows auto's estimate bounds the error ("holds", "exceeds"), or
+"unresolved at N seeds" with the count that would decide.
 
     python benchmarks/bench_auto.py [SCENARIO ...] [--replicates N] [--budget snr_rel=0.01]
     python benchmarks/bench_auto.py --quick    # atp_glow cut to 30 frames, 2 replicates
@@ -27,7 +30,9 @@ import numpy as np
 
 from chiptwin.config import load_scenario
 from chiptwin.fidelity import resolve, run
+from chiptwin.fidelity.compare import Difference, ratio_of_means, worst
 from chiptwin.fidelity.ladder import LEVELS, reference_levels, with_levels
+from chiptwin.twin.levels import SEEN_SNR_POWER
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 #: ``--quick``: a scene whose reference runs in about a second (atp_glow, closed-form kinetics,
@@ -54,32 +59,41 @@ def bench(name: str, budget: dict[str, float], replicates: int, rtl: bool,
     reference = with_levels(s, ref_levels)
     run(resolved), run(reference)  # warm-up: numba caches, RTL build
     walls = {"auto": [], "reference": []}
-    diffs = {"signal": [], "snr_power": []}
-    seen = None  # the sites the first reference run detects (power SNR ≥ 10)
+    values = {"auto": [], "reference": []}
     for seed in range(replicates):
-        a = run(resolved, seed=seed).summary
-        r = run(reference, seed=seed).summary
-        walls["auto"].append(a["wall_time_s"])
-        walls["reference"].append(r["wall_time_s"])
-        seen = seen or [i for i, y in enumerate(r["sites"]) if y["snr_power"] >= 10]
-        for key, out in (("signal_e", "signal"), ("snr_power", "snr_power")):
-            diffs[out].append([a["sites"][i][key] / r["sites"][i][key] - 1 for i in seen])
+        for side, sv in (("auto", resolved), ("reference", reference)):
+            sm = run(sv, seed=seed).summary
+            walls[side].append(sm["wall_time_s"])
+            values[side].append([[y["signal_e"], y["snr_power"]] for y in sm["sites"]])
     wa, wr = statistics.median(walls["auto"]), statistics.median(walls["reference"])
+    estimate = choice.summary()["fidelity_error_estimate"]
     print(f"\n{name}{' (' + ' '.join(smaller) + ')' if smaller else ''}: budget {budget}")
     print(f"  auto picks    {choice.levels}")
     print(f"  reference     {ref_levels}")
     print(f"  wall (warm median of {replicates}): reference {wr:.3f} s, auto {wa:.3f} s, "
           f"speed-up {wr / wa:.1f}x; resolving auto {first:.2f} s first, {cached:.2f} s cached")
-    print(f"  estimated error {choice.summary()['fidelity_error_estimate']}")
-    for figure, d in diffs.items():
-        d = np.array(d)
-        if d.size == 0:
+    print(f"  estimated error {estimate}")
+    a, r = np.array(values["auto"]), np.array(values["reference"])  # seeds × sites × 2
+    seen = r[:, :, 1].mean(axis=0) >= SEEN_SNR_POWER
+    for k, (figure, key) in enumerate((("signal", "signal_rel"), ("snr_power", "snr_rel"))):
+        d = worst(ratio_of_means(a[:, seen, k], r[:, seen, k]))
+        if d is None:
             continue
-        mean = d.mean(axis=0)
-        half = 1.96 * d.std(axis=0, ddof=1) / np.sqrt(len(d))
-        worst = int(np.argmax(np.abs(mean)))
-        print(f"  measured {figure:9s} systematic {mean[worst]:+.4f} ± {half[worst]:.4f} "
-              f"(worst site), largest single-seed |diff| {np.max(np.abs(d)):.4f}")
+        print(f"  measured {figure:9s} {verdict(d, estimate.get(key))}")
+
+
+def verdict(d: Difference, estimate: float | None) -> str:
+    """The measured difference, its interval and what it shows of the estimate."""
+    text = (f"{d.value:+.4f} ± {d.half:.4f} (ratio of means, 95 % t, n = {d.n}, the site "
+            "reaching furthest)")
+    if estimate is None:
+        return text
+    v = d.bounded_by(estimate)
+    if v == "unresolved":
+        need = d.seeds_to_decide(estimate)
+        return (f"{text}: unresolved at {d.n} seeds against the estimate {estimate:.4g} "
+                f"(≈ {need if need else '?'} seeds would decide)")
+    return f"{text}: estimate {estimate:.4g} {'bounds it' if v == 'holds' else 'EXCEEDED'}"
 
 
 def main(argv: list[str] | None = None) -> int:
