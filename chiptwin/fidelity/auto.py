@@ -20,6 +20,8 @@ import numpy as np
 
 from chiptwin.chip import Recorder
 from chiptwin.config import Scenario
+from chiptwin.config.budget import window_edges
+from chiptwin.detection import window_sums
 from chiptwin.twin import runner, stages
 from chiptwin.twin.levels import (
     EXPECTED_SDS,
@@ -33,7 +35,7 @@ from chiptwin.twin.levels import (
     with_levels,
 )
 from chiptwin.twin.levels import resolve as _resolve
-from chiptwin.twin.results import detect
+from chiptwin.twin.results import detect, light_decay_per_s
 
 
 def resolve(s: Scenario, cache: Path | None = None) -> tuple[Scenario, AutoChoice | None]:
@@ -156,10 +158,14 @@ class Calibrations(CachedEstimates):
                     f"({', '.join(further)}) at most {later:.3g} LSB at its output (their "
                     "analytic bounds on this scene's data, through the stages after each)")
         base = self._expected(self._expected_levels())
-        e_per_lsb = base.e_per_lsb
+        gain = window_gain(base)
+        how += (f"; × {gain:.4g} to a window total (the detection's sum of N-frame averages, "
+                "its ℓ∞ gain on per-output errors)")
+        total_e = lsb * base.e_per_lsb * gain
         signal = min(abs(st["signal_e"]) for st in base.summary["sites"]) or math.inf
-        errors = {"dsp_lsb": lsb, "signal_rel": lsb * e_per_lsb / signal, "noise_rel": 0.0,
-                  "flow_value_abs": 2 * lsb * e_per_lsb / signal}
+        top = max((abs(f["value"]) for f in base.summary.get("flows") or []), default=1.0)
+        errors = {"dsp_lsb": lsb, "signal_rel": total_e / signal, "noise_rel": 0.0,
+                  "flow_value_abs": (1 + top) * total_e / signal}
         return Estimate(_with_snr(errors), how)
 
     def _program_bound_lsb(self) -> tuple[float, float, str | None]:
@@ -237,6 +243,18 @@ class _ExpectedRun:
                        sites=stages.site_pixel_indices(sv))
         summary, arrays = detect(sv, scene, out)
         return cls(sv, scene, out, summary, figures(summary, arrays, scene.sensor.e_per_lsb))
+
+
+def window_gain(run: _ExpectedRun) -> float:
+    """The largest factor a window total (:func:`chiptwin.detection.window_sums`: ``N · c ·
+    Σ_j w_j y_j`` over the window's DSP outputs) applies to an error of at most 1 in each
+    output: ``max_window N · c · Σ_j |w_j|`` (the ℓ∞ norm of the estimator's row), ≈ 40 × 4 for
+    crosstalk_microarray's plain sum; N for a kinetics program's one output a window."""
+    s, t = run.scenario, run.out.block_t_s
+    ones = np.ones((len(t), 1))
+    sums, _ = window_sums(t, ones, np.zeros_like(ones), np.zeros(1), s.chip.dsp.average_frames,
+                          window_edges(s), light_decay_per_s(s))
+    return float(np.max(np.abs(sums), initial=0.0))
 
 
 def _with_snr(spent: dict[str, float]) -> dict[str, float]:

@@ -27,8 +27,10 @@ error"). The error of a level is taken against the stage's most faithful level t
   Gaussian, :func:`chiptwin.pixel.cms_moments`) and with every effect zeroed.
 * **dsp**: ``rtl`` equals ``fixed`` bit for bit (co-simulated, ``tests/rtl``); ``fixed`` differs
   from ``float`` by the chain's rounding (half an output LSB per rounding step, 0 when M, K and N
-  are powers of two) unless the N-frame accumulator is narrower than its exact width
-  (``[chip.dsp] acc_bits``), where it can wrap: unbounded.
+  are powers of two) and the program's further stages' bounds, per DSP output, carried to the
+  window total the detection reads by the window sum's gain (N × the outputs in a window for
+  the plain sum; :func:`chiptwin.fidelity.auto.window_gain`), unless the N-frame accumulator is
+  narrower than its exact width (``[chip.dsp] acc_bits``), where it can wrap: unbounded.
 
 An error is a distance between the laws of a figure at the two levels, not between two draws:
 a level that samples the reference's law (binned for events) costs nothing even though its draws
