@@ -229,7 +229,7 @@ def test_the_hard_cases_measure_what_they_claim():
         return _choice(hc.scenario, [*hc.overrides, f'run.fidelity.{hc.stage}="auto"',
                                      *budget]).reasons[hc.stage]
 
-    assert "TV distance to Poisson 0.07" in reason("dim_shot")
+    assert "mean within 0.023 e⁻" in reason("dim_shot")
     flow_error = float(reason("homopolymer_5mer").split("flow_value_abs ")[-1].split()[0])
     assert 0.015 < flow_error < 0.03
     assert "wrap" in reason("narrow_accumulator")
