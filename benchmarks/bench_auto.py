@@ -1,9 +1,12 @@
 """``auto`` fidelity against the reference: wall-time ratio and the error actually incurred.
 
 For each scenario (default: pyro_1fmol) every ``[run.fidelity]`` key is set to ``auto`` with the
-budget given (default ``snr_rel = 0.01``, issue 9's aim), and the levels ``auto`` picks are run
-side by side with the reference (the ladder's most faithful levels; the DSP at ``fixed``, which
-the RTL equals bit for bit, unless ``--rtl``) on the same seeds, warm, in this process.
+budget given (default ``snr_rel = 0.01``), and the levels ``auto`` picks are run side by side
+with the reference (the ladder's most faithful levels; the DSP at ``fixed``, which the RTL
+equals bit for bit, unless ``--rtl``; the photons at ``binned``, which has the events level's
+law, unless ``--events``: the events level over the cascade takes 16-100 ms a window) on the
+same seeds, warm, in this process. The speed-up is against the most faithful levels (events
+photons, timed once warm) where their run is estimated within :data:`MAX_REFERENCE_S`.
 
 Printed per scenario: the levels picked, the median warm wall time of each and their ratio, the
 time ``auto`` itself took (its calibrations, first and cached), the estimated error, and the
@@ -14,21 +17,26 @@ biases upward by its squared coefficient of variation), for the site whose inter
 furthest; and whether that shows auto's estimate bounds the error ("holds", "exceeds"), or
 "unresolved at N seeds" with the count that would decide.
 
-    python benchmarks/bench_auto.py [SCENARIO ...] [--replicates N] [--budget snr_rel=0.01]
+    python benchmarks/bench_auto.py [SCENARIO ... | all] [--replicates N] [--budget snr_rel=0.01]
     python benchmarks/bench_auto.py --quick    # atp_glow cut to 30 frames, 2 replicates
+
+Ends with the coverage table (markdown) of every scene run.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import statistics
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from chiptwin.config import load_scenario
+from chiptwin.config.cost import wall_seconds
 from chiptwin.fidelity import resolve, run
 from chiptwin.fidelity.compare import Difference, ratio_of_means, worst
 from chiptwin.fidelity.ladder import LEVELS, reference_levels, with_levels
@@ -41,8 +49,17 @@ SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 QUICK = ("atp_glow", ["run.duration_s=30.0"])
 
 
+#: The most faithful levels are timed (once, warm) for the speed-up only when their run is
+#: estimated within this (``chiptwin.config.cost``; pyro_array_256's would take hours). Unit: s.
+MAX_REFERENCE_S = 300.0
+
+
+def _unlimited(s):
+    return replace(s, run=replace(s.run, max_wall_s=1e7))
+
+
 def bench(name: str, budget: dict[str, float], replicates: int, rtl: bool,
-          smaller: list[str] = ()) -> None:
+          smaller: list[str] = (), photons: str = "binned") -> dict:
     sets = [*smaller] + [f'run.fidelity.{st}="auto"' for st in LEVELS]
     sets += [f"run.error_budget.{f}={v}" for f, v in budget.items()]
     s = load_scenario(SCENARIOS / f"{name}.toml", sets)
@@ -56,7 +73,8 @@ def bench(name: str, budget: dict[str, float], replicates: int, rtl: bool,
     ref_levels = reference_levels(s)
     if not rtl and ref_levels["dsp"] == "rtl":
         ref_levels["dsp"] = "fixed"
-    reference = with_levels(s, ref_levels)
+    reference = with_levels(s, {**ref_levels, "photons": photons})
+    faithful = with_levels(s, ref_levels)
     run(resolved), run(reference)  # warm-up: numba caches, RTL build
     walls = {"auto": [], "reference": []}
     values = {"auto": [], "reference": []}
@@ -66,6 +84,11 @@ def bench(name: str, budget: dict[str, float], replicates: int, rtl: bool,
             walls[side].append(sm["wall_time_s"])
             values[side].append([[y["signal_e"], y["snr_power"]] for y in sm["sites"]])
     wa, wr = statistics.median(walls["auto"]), statistics.median(walls["reference"])
+    if photons != ref_levels["photons"]:  # the speed-up against the most faithful levels
+        wr = math.nan
+        if wall_seconds(_unlimited(faithful)) <= MAX_REFERENCE_S:
+            run(_unlimited(faithful))
+            wr = run(_unlimited(faithful)).summary["wall_time_s"]
     estimate = choice.summary()["fidelity_error_estimate"]
     print(f"\n{name}{' (' + ' '.join(smaller) + ')' if smaller else ''}: budget {budget}")
     print(f"  auto picks    {choice.levels}")
@@ -75,11 +98,43 @@ def bench(name: str, budget: dict[str, float], replicates: int, rtl: bool,
     print(f"  estimated error {estimate}")
     a, r = np.array(values["auto"]), np.array(values["reference"])  # seeds × sites × 2
     seen = r[:, :, 1].mean(axis=0) >= SEEN_SNR_POWER
+    row = {"scene": name, "levels": choice.levels, "speedup": wr / wa, "n": replicates}
     for k, (figure, key) in enumerate((("signal", "signal_rel"), ("snr_power", "snr_rel"))):
         d = worst(ratio_of_means(a[:, seen, k], r[:, seen, k]))
         if d is None:
             continue
         print(f"  measured {figure:9s} {verdict(d, estimate.get(key))}")
+        row[key] = (d, estimate.get(key))
+    return row
+
+
+SHORT = {"closed_form": "cf", "cascade": "casc", "expected": "exp", "binned": "bin",
+         "events": "ev", "gaussian": "gauss", "poisson": "pois", "as_built": "built"}
+
+
+def markdown(rows: list[dict]) -> str:
+    """The coverage table: per scene auto's levels, its estimated power-SNR error, the measured
+    one with its interval, whether the measurement resolves the estimate's bound, the speed-up."""
+    lines = ["| scene | auto's levels (kinetics, photons, optics, shot, dsp, adc) | estimate "
+             "snr_rel | measured snr_rel (95 % t) | bound | speed-up |",
+             "|---|---|---|---|---|---|"]
+    for r in rows:
+        levels = ", ".join(SHORT.get(v, v) for v in r["levels"].values())
+        if "snr_rel" not in r:
+            lines.append(f"| {r['scene']} | {levels} | – | no site seen | – | "
+                         f"{_speedup(r['speedup'])} |")
+            continue
+        d, est = r["snr_rel"]
+        v = d.bounded_by(est)
+        bound = v if v != "unresolved" else (
+            f"unresolved at {d.n} seeds (≈ {d.seeds_to_decide(est) or '?'} would decide)")
+        lines.append(f"| {r['scene']} | {levels} | {est:.2%} | {d.value:+.2%} ± {d.half:.2%} | "
+                     f"{bound} | {_speedup(r['speedup'])} |")
+    return "\n".join(lines)
+
+
+def _speedup(x: float) -> str:
+    return f"{x:.3g}×" if math.isfinite(x) else f"not timed (reference > {MAX_REFERENCE_S:g} s)"
 
 
 def verdict(d: Difference, estimate: float | None) -> str:
@@ -104,13 +159,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--budget", action="append", default=[],
                     help="figure=value (default snr_rel=0.01)")
     ap.add_argument("--rtl", action="store_true", help="reference DSP at rtl (Verilator)")
+    ap.add_argument("--events", action="store_true",
+                    help="the error's reference at events photons (default binned, its law)")
     args = ap.parse_args(argv)
     budget = {k: float(v) for k, v in (b.split("=") for b in args.budget)} or {"snr_rel": 0.01}
     if args.quick:
-        bench(QUICK[0], budget, 2, args.rtl, QUICK[1])
+        print("\n" + markdown([bench(QUICK[0], budget, 2, args.rtl, QUICK[1])]))
         return 0
-    for name in args.scenarios:
-        bench(name, budget, args.replicates, args.rtl)
+    photons = "events" if args.events else "binned"
+    names = args.scenarios if args.scenarios != ["all"] else sorted(
+        p.stem for p in SCENARIOS.glob("*.toml"))
+    print("\n" + markdown([bench(name, budget, args.replicates, args.rtl, photons=photons)
+                            for name in names]))
     return 0
 
 
