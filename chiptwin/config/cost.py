@@ -56,37 +56,44 @@ from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
 from chiptwin.constants import N_A, s_to_ticks
 
-#: Per run: scene preparation, coupling, outputs gathered (not the interpreter's start). Unit: s.
-RUN_S: float = 0.02
+#: Per run: scene preparation, coupling, outputs gathered (not the interpreter's start). Unit: s
+#: (snr10_requirement whole, warm: 0.009 s; recalibrated 2026-11-28 with
+#: ``benchmarks/bench_estimates.py``).
+RUN_S: float = 0.01
 #: Per frame of a chip model run in SimPy (a DSP program, the RTL, a memory or DSP that does not
 #: keep up): the events (reset, integrate, convert, write, DSP job) and the trace. Unit: s
 #: (pyro_1fmol at the expected level with a kinetics program: 0.18 s over 1,520 frames).
 FRAME_S: float = 1.0e-4
 #: Per frame of a run known ahead (:func:`chiptwin.chip.steady.steady_run`: the default DSP
 #: chain, the memory and the DSP keeping up): the closed-form schedule and the trace. Unit: s
-#: (pyro_1fmol at the expected level: 0.052 s over 1,520 frames).
-STEADY_FRAME_S: float = 2.0e-5
+#: (pyro_paper_yield at the expected level, whole: 0.013 s over 1,520 frames; 0.052 s before).
+STEADY_FRAME_S: float = 8.0e-6
 #: Per pixel-sample of a frame made and read by the float DSP (moments, Poisson draws, codes).
-#: Unit: s (pyro_array_256 reduced: 9.1 s / (500 × 65,536 × 8)).
-PIXEL_SAMPLE_S: dict[str, float] = {"expected": 2.6e-8, "binned": 3.5e-8, "events": 3.5e-8}
+#: Unit: s (pyro_array_256 reduced: 9.1 s / (500 × 65,536 × 8); the expected level: at most
+#: pyro_paper_yield's whole 0.013 s over 1.56e6).
+PIXEL_SAMPLE_S: dict[str, float] = {"expected": 8.0e-9, "binned": 3.5e-8, "events": 3.5e-8}
 #: Per pixel-sample at each DSP level, beyond the float level's. Unit: s. ``fixed``: ccd_two_wells
 #: (0.85 s over 336 × 1,024 pixel-samples, its 7-stage program in SimPy) and crosstalk_microarray
 #: (0.24 s over 56 × 1,024). ``rtl``: NOT measured here (no simulator on the calibration path); a
 #: stated guess of 100× the fixed level's first calibration (2.2e-5 s), so that an RTL
 #: co-simulation of a long run is refused rather than let run.
 DSP_PIXEL_SAMPLE_S: dict[str, float] = {"float": 0.0, "fixed": 3.0e-6, "rtl": 2.2e-3}
+#: The same for the default chain (cms, dark, background, average) at ``fixed``: its numba
+#: kernel, no program in SimPy. Unit: s (at most 0.047 s of atp_glow's whole reference run over
+#: 82,000 pixel-samples, and of pyro_1fmol's 2.6 s over 1.56e6; 3e-6 said 0.25 s and 4.7 s).
+DSP_DEFAULT_FIXED_S: float = 1.0e-7
 #: The events level, per window (the cumulative's cells, the draws). Unit: s (atp_glow's 80
 #: windows over 3 site pixels: 0.078 s).
 EVENTS_WINDOW_S: float = 6.0e-4
 #: Per site pixel and window at the events level: its expected electrons (one light-source
 #: integral a pixel) and, above the drawing limit, the count and the full-well time. Unit: s,
 #: by kinetics level (atp_dose_response's 80 windows × 64 site pixels: 0.67 s; over the
-#: cascade's dense output 0.8 ms (pyro_1fmol) to 2.4 ms (jssc2006_faceplate): their geometric
-#: mean).
-EVENTS_PIXEL_S: dict[str, float] = {"closed_form": 1.2e-4, "cascade": 1.4e-3}
+#: cascade's dense output 0.35 ms (pyro_1fmol, 2.6 s whole) to 0.7 ms (jssc2006_faceplate,
+#: 2.7 s whole) on a quiet machine, 2.4 ms on a loaded one).
+EVENTS_PIXEL_S: dict[str, float] = {"closed_form": 1.2e-4, "cascade": 5.0e-4}
 #: Per window at or below the drawing limit: the arrival times' cells refined over the light
-#: (ccd_100fmol: 1,516 windows of ≈ 23 e⁻ over the cascade, 20 s). Unit: s.
-EVENTS_REFINE_S: dict[str, float] = {"closed_form": 1.0e-3, "cascade": 1.3e-2}
+#: (ccd_100fmol: 1,516 windows of ≈ 23 e⁻ over the cascade, 12–20 s). Unit: s.
+EVENTS_REFINE_S: dict[str, float] = {"closed_form": 1.0e-3, "cascade": 1.0e-2}
 #: Per arrival time drawn, by kinetics level. Unit: s (closed form: ccd_two_wells reduced,
 #: ≈ 0.15 s a frame at the drawing limit; the cascade: ccd_two_wells' 334 drawn windows of
 #: 5,400 e⁻ on average, 29 s with the refinement).
@@ -183,10 +190,12 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
                  ps * PIXEL_SAMPLE_S[photons],
                  f"{length}, chip.rows × chip.cols, chip.dsp.cms_samples"),
     ]
-    if DSP_PIXEL_SAMPLE_S[dsp]:
-        terms.append(CostTerm(f"{ps:.3g} pixel-samples through the {dsp} DSP × "
-                              f"{DSP_PIXEL_SAMPLE_S[dsp]:g} s", ps * DSP_PIXEL_SAMPLE_S[dsp],
-                              "run.fidelity.dsp (or chip.dsp.mode), " + length))
+    dsp_s = DSP_PIXEL_SAMPLE_S[dsp]
+    if dsp == "fixed" and _default_chain(s):
+        dsp_s = DSP_DEFAULT_FIXED_S
+    if dsp_s:
+        terms.append(CostTerm(f"{ps:.3g} pixel-samples through the {dsp} DSP × {dsp_s:g} s",
+                              ps * dsp_s, "run.fidelity.dsp (or chip.dsp.mode), " + length))
     if photons == "events":
         terms.append(_events_term(s, kinetics, frames, length))
     if c.adc.as_built_keys:
@@ -307,6 +316,12 @@ def _as_built_term(s: Scenario, pixel_frames: int) -> CostTerm:
     return CostTerm(f"{pixel_frames:.3g} pixel-frames of the converter as built by the series × "
                     f"({AS_BUILT_SERIES_S:g} s + 2 × {k}² harmonics × {AS_BUILT_HARMONIC_S:g} s)",
                     pixel_frames * each, keys)
+
+
+def _default_chain(s: Scenario) -> bool:
+    from chiptwin.dsp.program import is_default
+
+    return is_default(s.chip.dsp.program)
 
 
 def _steady(s: Scenario) -> bool:
