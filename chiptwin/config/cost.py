@@ -66,12 +66,13 @@ RUN_S: float = 0.01
 FRAME_S: float = 1.0e-4
 #: Per frame of a run known ahead (:func:`chiptwin.chip.steady.steady_run`: the default DSP
 #: chain, the memory and the DSP keeping up): the closed-form schedule and the trace. Unit: s
-#: (pyro_paper_yield at the expected level, whole: 0.013 s over 1,520 frames; 0.052 s before).
-STEADY_FRAME_S: float = 8.0e-6
+#: (pyro_paper_yield_fast at auto: 2.2–5.4 s over 192,256 frames, the machine shared).
+STEADY_FRAME_S: float = 1.5e-5
 #: Per pixel-sample of a frame made and read by the float DSP (moments, Poisson draws, codes).
-#: Unit: s (pyro_array_256 reduced: 9.1 s / (500 × 65,536 × 8); the expected level: at most
-#: pyro_paper_yield's whole 0.013 s over 1.56e6).
-PIXEL_SAMPLE_S: dict[str, float] = {"expected": 8.0e-9, "binned": 3.5e-8, "events": 3.5e-8}
+#: Unit: s (pyro_array_256 reduced: 9.1 s / (500 × 65,536 × 8); whole at auto, binned, 51–70 s
+#: over 7.97e8 on the shared 2-core machine; the expected level: at most pyro_paper_yield's
+#: whole 0.013–0.033 s over 1.56e6).
+PIXEL_SAMPLE_S: dict[str, float] = {"expected": 8.0e-9, "binned": 5.0e-8, "events": 5.0e-8}
 #: Per pixel-sample at each DSP level, beyond the float level's. Unit: s. ``fixed``: ccd_two_wells
 #: (0.85 s over 336 × 1,024 pixel-samples, its 7-stage program in SimPy) and crosstalk_microarray
 #: (0.24 s over 56 × 1,024). ``rtl``: NOT measured here (no simulator on the calibration path); a
@@ -92,12 +93,13 @@ EVENTS_WINDOW_S: float = 6.0e-4
 #: 2.7 s whole) on a quiet machine, 2.4 ms on a loaded one).
 EVENTS_PIXEL_S: dict[str, float] = {"closed_form": 1.2e-4, "cascade": 5.0e-4}
 #: Per window at or below the drawing limit: the arrival times' cells refined over the light
-#: (ccd_100fmol: 1,516 windows of ≈ 23 e⁻ over the cascade, 12–20 s). Unit: s.
-EVENTS_REFINE_S: dict[str, float] = {"closed_form": 1.0e-3, "cascade": 1.0e-2}
+#: (ccd_100fmol: 1,516 windows of ≈ 23 e⁻ over the cascade, 5–24 s whole as the shared
+#: machine's load varied). Unit: s.
+EVENTS_REFINE_S: dict[str, float] = {"closed_form": 1.0e-3, "cascade": 7.0e-3}
 #: Per arrival time drawn, by kinetics level. Unit: s (closed form: ccd_two_wells reduced,
 #: ≈ 0.15 s a frame at the drawing limit; the cascade: ccd_two_wells' 334 drawn windows of
 #: 5,400 e⁻ on average, 29 s with the refinement).
-ARRIVAL_S: dict[str, float] = {"closed_form": 7.0e-6, "cascade": 1.5e-5}
+ARRIVAL_S: dict[str, float] = {"closed_form": 7.0e-6, "cascade": 1.2e-5}
 #: Expected electrons per window up to which every arrival is drawn (``EventPixels.MAX_EVENTS``).
 EVENTS_DRAWN_MAX: int = 20_000
 #: The cascade's yield fit, once a process (``twin.stages._fitted_yield``), and its stiff solver

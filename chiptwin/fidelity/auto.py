@@ -271,8 +271,10 @@ def _seen_signal(summary: dict[str, Any]) -> float:
 def window_gain(run: _ExpectedRun) -> float:
     """The largest factor a window total (:func:`chiptwin.detection.window_sums`: ``N · c ·
     Σ_j w_j y_j`` over the window's DSP outputs) applies to an error of at most 1 in each
-    output: ``max_window N · c · Σ_j |w_j|`` (the ℓ∞ norm of the estimator's row), ≈ 40 × 4 for
-    crosstalk_microarray's plain sum; N for a kinetics program's one output a window."""
+    output: ``max_window N · c · Σ_j |w_j|`` (the ℓ∞ norm of the estimator's row): 40 for
+    crosstalk_microarray's plain sum (10 outputs of N = 4 frames); N for a kinetics program's
+    one output a window. In frames, it is also the window total's weight on its pixel-frame
+    counts (each output averages N of them)."""
     s, t = run.scenario, run.out.block_t_s
     ones = np.ones((len(t), 1))
     sums, _ = window_sums(t, ones, np.zeros_like(ones), np.zeros(1), s.chip.dsp.average_frames,
