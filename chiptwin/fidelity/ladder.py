@@ -228,7 +228,7 @@ def measured_errors(level: list[dict[str, np.ndarray]], ref: list[dict[str, np.n
     for name, key in RATIO_FIGURES.items():
         x = np.array([f[key][seen] for f in level])
         y = np.array([f[key][seen] for f in ref])
-        d = worst(ratio_of_means(x, y)) if x.size else None
+        d = worst(ratio_of_means(x, y, family=True)) if x.size else None
         out[name] = (d.as_dict(RESOLUTION) if d is not None else
                      {"value": None, "ci": None, "note": "no site detected, or not finite"})
     snr = out["snr_rel"]
@@ -262,7 +262,7 @@ def _bounds(errors: dict[str, dict[str, Any]], estimate: dict[str, float | None]
         if est is None or not e or e.get("value") is None:
             continue
         d = Difference(e["signed"], math.inf if e["ci"] is None else e["ci"], e["n"],
-                       e["method"])
+                       e["method"], e.get("confidence", 0.95))
         out[name] = {"estimate": est, "verdict": d.bounded_by(est),
                      "seeds_to_decide": d.seeds_to_decide(est)}
     return out
