@@ -139,8 +139,8 @@ def _speedup(x: float) -> str:
 
 def verdict(d: Difference, estimate: float | None) -> str:
     """The measured difference, its interval and what it shows of the estimate."""
-    text = (f"{d.value:+.4f} ± {d.half:.4f} (ratio of means, 95 % t, n = {d.n}, the site "
-            "reaching furthest)")
+    text = (f"{d.value:+.4f} ± {d.half:.4f} ({d.method}, n = {d.n}, the site reaching "
+            "furthest)")
     if estimate is None:
         return text
     v = d.bounded_by(estimate)
