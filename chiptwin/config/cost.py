@@ -83,9 +83,9 @@ DSP_PIXEL_SAMPLE_S: dict[str, float] = {"float": 0.0, "fixed": 3.0e-6, "rtl": 2.
 #: kernel, no program in SimPy. Unit: s (at most 0.047 s of atp_glow's whole reference run over
 #: 82,000 pixel-samples, and of pyro_1fmol's 2.6 s over 1.56e6; 3e-6 said 0.25 s and 4.7 s).
 DSP_DEFAULT_FIXED_S: float = 1.0e-7
-#: The events level, per window (the cumulative's cells, the draws). Unit: s (atp_glow's 80
-#: windows over 3 site pixels: 0.078 s).
-EVENTS_WINDOW_S: float = 6.0e-4
+#: The events level, per window (the cumulative's cells, the draws). Unit: s (snr10_requirement
+#: whole at its reference levels: 0.012 s over 65 windows; atp_glow's: 0.037 s over 80).
+EVENTS_WINDOW_S: float = 2.5e-4
 #: Per site pixel and window at the events level: its expected electrons (one light-source
 #: integral a pixel) and, above the drawing limit, the count and the full-well time. Unit: s,
 #: by kinetics level (atp_dose_response's 80 windows × 64 site pixels: 0.67 s; over the
