@@ -126,8 +126,9 @@ def markdown(rows: list[dict]) -> str:
             continue
         d, est = r["snr_rel"]
         v = d.bounded_by(est)
+        need = d.seeds_to_decide(est) or "?"
         bound = v if v != "unresolved" else (
-            f"unresolved at {d.n} seeds (≈ {d.seeds_to_decide(est) or '?'} would decide)")
+            f"unresolved at {d.n} seeds (≈ {need} would decide at this mean)")
         lines.append(f"| {r['scene']} | {levels} | {est:.2%} | {d.value:+.2%} ± {d.half:.2%} | "
                      f"{bound} | {_speedup(r['speedup'])} |")
     return "\n".join(lines)
@@ -147,7 +148,7 @@ def verdict(d: Difference, estimate: float | None) -> str:
     if v == "unresolved":
         need = d.seeds_to_decide(estimate)
         return (f"{text}: unresolved at {d.n} seeds against the estimate {estimate:.4g} "
-                f"(≈ {need if need else '?'} seeds would decide)")
+                f"(≈ {need if need else '?'} seeds would decide at this mean and spread)")
     return f"{text}: estimate {estimate:.4g} {'bounds it' if v == 'holds' else 'EXCEEDED'}"
 
 

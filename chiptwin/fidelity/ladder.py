@@ -331,9 +331,10 @@ def table(ladder: dict[str, Any]) -> str:
         if "estimate" in r:
             lines.append(f"auto's own estimate of its error: {r['estimate']}")
         for name, b in r.get("bound", {}).items():
+            more = (f" (≈ {b['seeds_to_decide']} seeds would decide at this mean)"
+                    if b["verdict"] == "unresolved" else "")
             lines.append(f"  {name}: estimate {b['estimate']:.3g} against the measured: "
-                         f"{b['verdict']}" + (f" (≈ {b['seeds_to_decide']} seeds would decide)"
-                                              if b["verdict"] == "unresolved" else ""))
+                         f"{b['verdict']}{more}")
     return "\n".join(lines)
 
 
