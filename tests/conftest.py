@@ -172,6 +172,10 @@ SLOW = {
     "test_auto_keeps_as_built_within_a_tight_budget_and_takes_ideal_within_a_loose_one",
     "tests/test_shortcuts.py::test_converters_as_built_are_carried_with_their_pixels",
     "tests/test_ladder.py::test_cli_ladder_writes_its_outputs",
+    "tests/fidelity/test_dsp_bound.py",  # fixed and float whole runs, same seeds
+    "tests/fidelity/test_coverage.py",  # auto and the reference, 4 seeds each
+    "tests/fidelity/test_shot_bound.py::test_window_total_moves_within_the_charge_and_far_below_tv",
+    "tests/fidelity/test_events_estimate.py::test_drawn_windows_are_the_runs",
     "tests/study/test_engine.py::test_serial_pool_and_dask_give_identical_tables",
     "tests/study/test_engine.py::test_killed_study_resumes_to_the_same_tables",
     "tests/study/test_engine.py::test_changed_study_is_refused_for_resumption",

@@ -129,11 +129,22 @@ def test_a_scene_with_auto_stages_gets_an_auto_row(tmp_path, monkeypatch):
     assert last.estimate["snr_rel"] <= 0.02
 
 
-def test_snr_bias_is_the_systematic_part(ladder):
-    """The reference's own bias is 0; na2 draws like the reference (common random numbers), so
-    its bias is its per-replicate SNR error, the same each seed."""
+def test_errors_are_ratios_of_means_resolved_or_not(ladder):
+    """The reference's own error is 0 and resolved; na2 draws like the reference (common random
+    numbers; the expected level draws no photons, the seed changes only the chip's fixed
+    pattern), so its SNR error is the ratio of the means with a narrow interval, resolved;
+    binned photons draw where the expected reference does not: at 2 seeds (t quantile 12.7) the
+    difference is unresolved, the row says how many seeds would resolve it, and the table
+    prints that instead of a number."""
+    from chiptwin.fidelity.ladder import table
+
     _, lad = ladder
     rows = {(r["stage"], r["level"]): r for r in lad["rows"] if "errors" in r}
-    assert rows[("reference", lad["rows"][0]["level"])]["errors"]["snr_bias"]["value"] == 0
-    na2 = rows[("optics", "na2")]["errors"]
-    assert na2["snr_bias"]["value"] == pytest.approx(na2["snr_rel"]["value"], rel=0.02)
+    ref = rows[("reference", lad["rows"][0]["level"])]["errors"]["snr_rel"]
+    assert ref["value"] == 0 and ref["resolved"]
+    na2 = rows[("optics", "na2")]["errors"]["snr_rel"]
+    assert na2["resolved"] and na2["ci"] < 1e-4
+    assert na2["method"].startswith("ratio of means")
+    binned = rows[("photons", "binned")]["errors"]["snr_rel"]
+    assert not binned["resolved"] and binned["seeds_to_resolve"] > 2
+    assert f"unres. n≥{binned['seeds_to_resolve']}" in table(lad)

@@ -7,9 +7,11 @@ cost per unit (:func:`wall_estimate`, term by term):
   the ``binned``/``events`` levels) and read by the DSP at its level (``float``, ``fixed``,
   ``rtl``);
 * **chip events**: a fixed cost per frame (the SimPy processes, the trace);
-* **arrival times** (``events`` level): per site pixel and window, the cells of the rate and, up
-  to :data:`EVENTS_DRAWN_MAX` expected electrons a window, one draw per arrival (above it the
-  count and the full-well time are drawn from order statistics, at no cost per photon);
+* **arrival times** (``events`` level): per window and site pixel, the light's integral; for a
+  window of up to :data:`EVENTS_DRAWN_MAX` expected electrons (:func:`window_electrons`, the
+  closed forms' typical light, not the bound), the cells of the rate refined and one draw per
+  arrival (above it the count and the full-well time are drawn from order statistics, at no
+  cost per photon), each dearer over the cascade's dense output than over the closed forms;
 * **solver** (``cascade`` kinetics): the stiff ODE per flow or per assay window;
 * **the converter as built** (any ``[chip.adc]`` effect): its expected moments per pixel-frame,
   by the sawtooth's series, or by a quadrature over exact table sums where the series does not
@@ -38,42 +40,66 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from chiptwin.config.budget import (
+    _lognormal_max,
     as_built_quadrature,
     as_built_white_lsb,
     film_bound,
     max_coupling,
+    max_dark_e,
     max_site_photons,
     n_sites,
 )
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
-from chiptwin.constants import s_to_ticks
+from chiptwin.constants import N_A, s_to_ticks
 
-#: Per run: scene preparation, coupling, outputs gathered (not the interpreter's start). Unit: s.
-RUN_S: float = 0.02
+#: Per run: scene preparation, coupling, outputs gathered (not the interpreter's start). Unit: s
+#: (snr10_requirement whole, warm: 0.009 s; recalibrated 2026-11-28 with
+#: ``benchmarks/bench_estimates.py``).
+RUN_S: float = 0.01
 #: Per frame of a chip model run in SimPy (a DSP program, the RTL, a memory or DSP that does not
 #: keep up): the events (reset, integrate, convert, write, DSP job) and the trace. Unit: s
 #: (pyro_1fmol at the expected level with a kinetics program: 0.18 s over 1,520 frames).
 FRAME_S: float = 1.0e-4
 #: Per frame of a run known ahead (:func:`chiptwin.chip.steady.steady_run`: the default DSP
 #: chain, the memory and the DSP keeping up): the closed-form schedule and the trace. Unit: s
-#: (pyro_1fmol at the expected level: 0.052 s over 1,520 frames).
-STEADY_FRAME_S: float = 2.0e-5
+#: (pyro_paper_yield_fast at auto: 2.2–5.4 s over 192,256 frames, the machine shared).
+STEADY_FRAME_S: float = 1.5e-5
 #: Per pixel-sample of a frame made and read by the float DSP (moments, Poisson draws, codes).
-#: Unit: s (pyro_array_256 reduced: 9.1 s / (500 × 65,536 × 8)).
-PIXEL_SAMPLE_S: dict[str, float] = {"expected": 2.6e-8, "binned": 3.5e-8, "events": 3.5e-8}
+#: Unit: s (pyro_array_256 reduced: 9.1 s / (500 × 65,536 × 8); whole at auto, binned, 51–70 s
+#: over 7.97e8 on the shared 2-core machine; the expected level: at most pyro_paper_yield's
+#: whole 0.013–0.033 s over 1.56e6).
+PIXEL_SAMPLE_S: dict[str, float] = {"expected": 8.0e-9, "binned": 5.0e-8, "events": 5.0e-8}
 #: Per pixel-sample at each DSP level, beyond the float level's. Unit: s. ``fixed``: ccd_two_wells
 #: (0.85 s over 336 × 1,024 pixel-samples, its 7-stage program in SimPy) and crosstalk_microarray
 #: (0.24 s over 56 × 1,024). ``rtl``: NOT measured here (no simulator on the calibration path); a
 #: stated guess of 100× the fixed level's first calibration (2.2e-5 s), so that an RTL
 #: co-simulation of a long run is refused rather than let run.
 DSP_PIXEL_SAMPLE_S: dict[str, float] = {"float": 0.0, "fixed": 3.0e-6, "rtl": 2.2e-3}
-#: Per site pixel and window at the events level: the rate's cells. Unit: s (pyro_1fmol
-#: reduced: 0.42 s over 116 frames × 2 site pixels, every window above the drawing limit).
-EVENTS_WINDOW_S: float = 1.7e-3
-#: Per arrival time drawn. Unit: s (ccd_two_wells reduced: ≈ 0.15 s a frame at the drawing limit).
-ARRIVAL_S: float = 7.0e-6
+#: The same for the default chain (cms, dark, background, average) at ``fixed``: its numba
+#: kernel, no program in SimPy. Unit: s (at most 0.047 s of atp_glow's whole reference run over
+#: 82,000 pixel-samples, and of pyro_1fmol's 2.6 s over 1.56e6; 3e-6 said 0.25 s and 4.7 s).
+DSP_DEFAULT_FIXED_S: float = 1.0e-7
+#: The events level, per window (the cumulative's cells, the draws). Unit: s (snr10_requirement
+#: whole at its reference levels: 0.012 s over 65 windows; atp_glow's: 0.037 s over 80).
+EVENTS_WINDOW_S: float = 2.5e-4
+#: Per site pixel and window at the events level: its expected electrons (one light-source
+#: integral a pixel) and, above the drawing limit, the count and the full-well time. Unit: s,
+#: by kinetics level (atp_dose_response's 80 windows × 64 site pixels: 0.67 s; over the
+#: cascade's dense output 0.35 ms (pyro_1fmol, 2.6 s whole) to 0.7 ms (jssc2006_faceplate,
+#: 2.7 s whole) on a quiet machine, 2.4 ms on a loaded one).
+EVENTS_PIXEL_S: dict[str, float] = {"closed_form": 1.2e-4, "cascade": 5.0e-4}
+#: Per window at or below the drawing limit: the arrival times' cells refined over the light
+#: (ccd_100fmol: 1,516 windows of ≈ 23 e⁻ over the cascade, 5–24 s whole as the shared
+#: machine's load varied). Unit: s.
+EVENTS_REFINE_S: dict[str, float] = {"closed_form": 1.0e-3, "cascade": 7.0e-3}
+#: Per arrival time drawn, by kinetics level. Unit: s (closed form: ccd_two_wells reduced,
+#: ≈ 0.15 s a frame at the drawing limit; the cascade: ccd_two_wells' 334 drawn windows of
+#: 5,400 e⁻ on average, 29 s with the refinement).
+ARRIVAL_S: dict[str, float] = {"closed_form": 7.0e-6, "cascade": 1.2e-5}
 #: Expected electrons per window up to which every arrival is drawn (``EventPixels.MAX_EVENTS``).
 EVENTS_DRAWN_MAX: int = 20_000
 #: The cascade's yield fit, once a process (``twin.stages._fitted_yield``), and its stiff solver
@@ -170,19 +196,14 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
                  ps * PIXEL_SAMPLE_S[photons],
                  f"{length}, chip.rows × chip.cols, chip.dsp.cms_samples"),
     ]
-    if DSP_PIXEL_SAMPLE_S[dsp]:
-        terms.append(CostTerm(f"{ps:.3g} pixel-samples through the {dsp} DSP × "
-                              f"{DSP_PIXEL_SAMPLE_S[dsp]:g} s", ps * DSP_PIXEL_SAMPLE_S[dsp],
-                              "run.fidelity.dsp (or chip.dsp.mode), " + length))
+    dsp_s = DSP_PIXEL_SAMPLE_S[dsp]
+    if dsp == "fixed" and _default_chain(s):
+        dsp_s = DSP_DEFAULT_FIXED_S
+    if dsp_s:
+        terms.append(CostTerm(f"{ps:.3g} pixel-samples through the {dsp} DSP × {dsp_s:g} s",
+                              ps * dsp_s, "run.fidelity.dsp (or chip.dsp.mode), " + length))
     if photons == "events":
-        sites = n_sites(s)
-        electrons = max_site_photons(s) * max_coupling(s) * c.pixel.qe * sites
-        drawn = min(electrons, EVENTS_DRAWN_MAX) if electrons <= EVENTS_DRAWN_MAX else 0.0
-        terms.append(CostTerm(
-            f"{frames} windows × {sites} site pixels × {EVENTS_WINDOW_S:g} s + ≈ {drawn:.3g} "
-            f"arrival times a window × {ARRIVAL_S:g} s",
-            frames * (sites * EVENTS_WINDOW_S + drawn * ARRIVAL_S),
-            f"run.fidelity.photons, sites.at_pixels, {length}"))
+        terms.append(_events_term(s, kinetics, frames, length))
     if c.adc.as_built_keys:
         terms.append(_as_built_term(s, frames * c.n_pixels))
     if s.run.fidelity.auto_stages():  # calibrations not yet cached: the scene at the expected
@@ -209,6 +230,70 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
                               CASCADE_FIT_S + w * CASCADE_WINDOW_S,
                               "run.fidelity.kinetics, assay.n_flows"))
     return terms
+
+
+def _events_term(s: Scenario, kinetics: str, frames: int, length: str) -> CostTerm:
+    """The events level: every window's site pixels, and the windows at or below the drawing
+    limit (:data:`EVENTS_DRAWN_MAX`) refined and drawn arrival by arrival
+    (:func:`window_electrons`)."""
+    sites = n_sites(s)
+    e = window_electrons(s, frames)
+    drawn = e <= EVENTS_DRAWN_MAX
+    arrivals = float(e[drawn].sum())
+    seconds = (frames * (EVENTS_WINDOW_S + sites * EVENTS_PIXEL_S[kinetics])
+               + drawn.sum() * EVENTS_REFINE_S[kinetics] + arrivals * ARRIVAL_S[kinetics])
+    return CostTerm(f"{frames} windows × ({EVENTS_WINDOW_S:g} s + {sites} site pixels × "
+                    f"{EVENTS_PIXEL_S[kinetics]:g} s), {int(drawn.sum())} drawn (≤ "
+                    f"{EVENTS_DRAWN_MAX} e⁻) × {EVENTS_REFINE_S[kinetics]:g} s and ≈ "
+                    f"{arrivals:.3g} arrival times × {ARRIVAL_S[kinetics]:g} s", seconds,
+                    f"run.fidelity.photons, run.fidelity.kinetics, sites.at_pixels, {length}")
+
+
+def window_electrons(s: Scenario, frames: int) -> np.ndarray:
+    """The expected electrons of all site pixels in each frame's window, as the events level
+    meets them (typical, not a bound): a site's light by the closed forms (Salama et al. 2004:
+    a pyrosequencing flow's 1-mer decays as ``e^{−k_a t}`` from the flow's start, an ATP glow as
+    ``e^{−k t}``, the rest constant at :func:`~chiptwin.config.budget.max_site_photons`), times
+    the site's own pixel's share (:func:`site_pixel_share`), QE and the sites, plus the site
+    pixels' mean dark charge (which alone puts a 100 µm diode at room temperature past the
+    drawing limit). Unit: e⁻."""
+    a, c, px = s.assay, s.chip, s.chip.pixel
+    t = np.arange(frames) * c.timing.frame_period_s - a.start_s  # window starts, light-relative
+    gain = site_pixel_share(s) * px.qe * n_sites(s)
+    dark = max_dark_e(s) / _lognormal_max(px.dsnu_frac, c.n_pixels) * n_sites(s)  # mean pixel
+    return dark + _light_electrons(s, frames, t, gain)
+
+
+def _light_electrons(s: Scenario, frames: int, t: np.ndarray, gain: float) -> np.ndarray:
+    a, period, t_int = s.assay, s.chip.timing.frame_period_s, s.chip.timing.t_int_s
+    if a.kind == "pyrosequencing":
+        y = a.photons_per_incorporation or a.quantum_yield * a.k_t_per_s / a.k_a_per_s
+        k, total = a.k_a_per_s, a.dna_fmol * 1e-15 * N_A * y
+        t = np.mod(t, a.flow_period_s)
+    elif a.kind == "atp":
+        k, total = a.turnover_per_s, a.atp_fmol * 1e-15 * N_A * a.quantum_yield
+    else:
+        e = np.full(frames, max_site_photons(s) * gain)
+        e[t < 0] = 0.0
+        return e
+    e = total * np.exp(-k * np.maximum(t, 0.0)) * -np.expm1(-k * t_int) * gain
+    e[np.arange(frames) * period < a.start_s] = 0.0
+    return e
+
+
+def site_pixel_share(s: Scenario) -> float:
+    """The share of a site's photons its own pixel gets, for the estimate: under contact
+    imaging twice the diode's solid angle from the site over 4π (a Lambertian emitter's
+    on-axis intensity is twice an isotropic one's; a rectangle's solid angle seen from a point
+    on its axis, ``4·asin(ab / √((a² + 4h²)(b² + 4h²)))``), at most
+    :func:`~chiptwin.config.budget.max_coupling`; 0.0079 at ccd_two_wells' 150 µm, where the
+    bound says 0.5."""
+    bound = max_coupling(s)
+    if s.optics.coupling != "contact" or s.assay.kind == "flux":
+        return bound
+    w, h, z = s.chip.pixel.diode_w_um, s.chip.pixel.diode_h_um, s.sites.height_um
+    omega = 4 * math.asin(w * h / math.sqrt((w * w + 4 * z * z) * (h * h + 4 * z * z)))
+    return min(bound, 2 * omega / (4 * math.pi) * s.optics.transmission)
 
 
 def _as_built_term(s: Scenario, pixel_frames: int) -> CostTerm:
@@ -239,6 +324,12 @@ def _as_built_term(s: Scenario, pixel_frames: int) -> CostTerm:
     return CostTerm(f"{pixel_frames:.3g} pixel-frames of the converter as built by the series × "
                     f"({AS_BUILT_SERIES_S:g} s + 2 × {k}² harmonics × {AS_BUILT_HARMONIC_S:g} s)",
                     pixel_frames * each, keys)
+
+
+def _default_chain(s: Scenario) -> bool:
+    from chiptwin.dsp.program import is_default
+
+    return is_default(s.chip.dsp.program)
 
 
 def _steady(s: Scenario) -> bool:

@@ -584,7 +584,8 @@ class Fidelity:
 
 #: What ``[run] error_budget`` may bound, each against the reference combination of levels.
 BUDGET_FIGURES = {
-    "snr_rel": "relative error of each site's SNR (amplitude)",
+    "snr_rel": "relative error of each site's power SNR S²/N² (eq. 22; the amplitude SNR's "
+               "relative error is about half of it)",
     "snr_db": "error of each site's power SNR in dB",
     "signal_rel": "relative error of each site's signal",
     "noise_rel": "relative error of each site's noise",

@@ -20,20 +20,23 @@ import numpy as np
 
 from chiptwin.chip import Recorder
 from chiptwin.config import Scenario
+from chiptwin.config.budget import window_edges
+from chiptwin.detection import window_sums
 from chiptwin.twin import runner, stages
 from chiptwin.twin.levels import (
     EXPECTED_SDS,
     FIGURES,
+    SEEN_SNR_POWER,
     AutoChoice,
     CachedEstimates,
     Estimate,
     figure_errors,
     figures,
-    gaussian_tv,
+    gaussian_moment_bounds,
     with_levels,
 )
 from chiptwin.twin.levels import resolve as _resolve
-from chiptwin.twin.results import detect
+from chiptwin.twin.results import detect, light_decay_per_s
 
 
 def resolve(s: Scenario, cache: Path | None = None) -> tuple[Scenario, AutoChoice | None]:
@@ -116,16 +119,29 @@ class Calibrations(CachedEstimates):
 
     def _shot(self, level: str) -> Estimate:
         lam = self._min_site_mean_e()
-        tv = gaussian_tv(lam)
+        dm, dv = gaussian_moment_bounds(lam)
         base = self._expected(self._expected_levels())
-        summary, out, e_per_lsb = base.summary, base.out, base.e_per_lsb
+        summary, e_per_lsb = base.summary, base.e_per_lsb
+        n_avg, n_dark = self.s.chip.dsp.average_frames, self.s.chip.dsp.n_dark_frames
+        frames = window_gain(base)  # a window total's weight on its pixel-frame counts
+        shift, var = 2 * frames * dm, 2 * frames**2 * dv  # light frames and the dark reference
+        signal = _seen_signal(summary)
         flows = summary.get("flows") or []
         top = max((abs(f["value"]) for f in flows), default=0.0)
-        errors = {"signal_rel": tv, "noise_rel": tv, "flow_value_abs": 2 * tv * top,
-                  "dsp_lsb": 2 * tv * float(np.sqrt(np.max(out.var_e2, initial=0.0)))
+        spread = EXPECTED_SDS * math.sqrt(var) / signal
+        errors = {"signal_rel": shift / signal, "noise_rel": 0.0,
+                  "flow_value_abs": (1 + top) * (shift / signal + spread) if flows else 0.0,
+                  "dsp_lsb": (2 * dm + EXPECTED_SDS * math.sqrt(dv * (1 / n_avg + 1 / n_dark)))
                   / e_per_lsb}
-        return Estimate(_with_snr(errors), f"TV distance to Poisson {tv:.3g} at the smallest "
-                        f"mean charge of a site pixel in a frame, {lam:.4g} e⁻")
+        errors = _with_snr(errors)
+        snr_rel = (2 * signal * shift + shift**2 + var) / signal**2
+        errors["snr_rel"] = snr_rel
+        errors["snr_db"] = 10 * math.log10(1 + snr_rel)
+        return Estimate(errors, f"the rounded normal's mean within {dm:.2g} e⁻ and variance "
+                        f"within {dv:.2g} e⁻² of Poisson's at every mean ≥ {lam:.4g} e⁻ (the "
+                        f"smallest of a site pixel in a frame), through a window of {frames:g} "
+                        "pixel-frames and the dark reference; the noise figure is the Poisson "
+                        "moments' at both levels")
 
     def _dsp(self, level: str) -> Estimate:
         if level == "fixed":  # against rtl
@@ -156,10 +172,14 @@ class Calibrations(CachedEstimates):
                     f"({', '.join(further)}) at most {later:.3g} LSB at its output (their "
                     "analytic bounds on this scene's data, through the stages after each)")
         base = self._expected(self._expected_levels())
-        e_per_lsb = base.e_per_lsb
-        signal = min(abs(st["signal_e"]) for st in base.summary["sites"]) or math.inf
-        errors = {"dsp_lsb": lsb, "signal_rel": lsb * e_per_lsb / signal, "noise_rel": 0.0,
-                  "flow_value_abs": 2 * lsb * e_per_lsb / signal}
+        gain = window_gain(base)
+        how += (f"; × {gain:.4g} to a window total (the detection's sum of N-frame averages, "
+                "its ℓ∞ gain on per-output errors)")
+        total_e = lsb * base.e_per_lsb * gain
+        signal = _seen_signal(base.summary)
+        top = max((abs(f["value"]) for f in base.summary.get("flows") or []), default=1.0)
+        errors = {"dsp_lsb": lsb, "signal_rel": total_e / signal, "noise_rel": 0.0,
+                  "flow_value_abs": (1 + top) * total_e / signal}
         return Estimate(_with_snr(errors), how)
 
     def _program_bound_lsb(self) -> tuple[float, float, str | None]:
@@ -237,6 +257,29 @@ class _ExpectedRun:
                        sites=stages.site_pixel_indices(sv))
         summary, arrays = detect(sv, scene, out)
         return cls(sv, scene, out, summary, figures(summary, arrays, scene.sensor.e_per_lsb))
+
+
+def _seen_signal(summary: dict[str, Any]) -> float:
+    """The smallest |signal| of the sites the relative figures are taken over (power SNR ≥
+    :data:`~chiptwin.twin.levels.SEEN_SNR_POWER`, as the ladder compares them), in e⁻; every
+    site's when none is seen."""
+    sites = summary["sites"]
+    seen = [st for st in sites if st["snr_power"] >= SEEN_SNR_POWER] or sites
+    return min(abs(st["signal_e"]) for st in seen) or math.inf
+
+
+def window_gain(run: _ExpectedRun) -> float:
+    """The largest factor a window total (:func:`chiptwin.detection.window_sums`: ``N · c ·
+    Σ_j w_j y_j`` over the window's DSP outputs) applies to an error of at most 1 in each
+    output: ``max_window N · c · Σ_j |w_j|`` (the ℓ∞ norm of the estimator's row): 40 for
+    crosstalk_microarray's plain sum (10 outputs of N = 4 frames); N for a kinetics program's
+    one output a window. In frames, it is also the window total's weight on its pixel-frame
+    counts (each output averages N of them)."""
+    s, t = run.scenario, run.out.block_t_s
+    ones = np.ones((len(t), 1))
+    sums, _ = window_sums(t, ones, np.zeros_like(ones), np.zeros(1), s.chip.dsp.average_frames,
+                          window_edges(s), light_decay_per_s(s))
+    return float(np.max(np.abs(sums), initial=0.0))
 
 
 def _with_snr(spent: dict[str, float]) -> dict[str, float]:

@@ -79,6 +79,14 @@ class CascadeSource:
     _site_run: NDArray[np.int64]
     build_wall_s: float
 
+    @property
+    def accuracy_rel(self) -> float:
+        """The relative tolerance the solutions were solved to (the largest of the sites'):
+        :meth:`photons` is accurate to about this share of a flow's photons, so a consumer that
+        refines it further (the events level's cells) bisects the solver's steps, not the
+        light."""
+        return max((run.rtol for run in self._runs), default=0.0)
+
     # --- the LightSource contract -------------------------------------------------------------
 
     def rate(self, t_s: ArrayLike) -> NDArray[np.float64]:

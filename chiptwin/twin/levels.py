@@ -17,18 +17,24 @@ error"). The error of a level is taken against the stage's most faithful level t
   mean, where the reference's figure is spread around it; its error is how far the reference's
   figure strays, :data:`EXPECTED_SDS` standard deviations (the site signal's ``signal_sd_e``, a
   flow value's spread, a DSP output's noise).
-* **shot** (gaussian vs poisson): the total-variation distance between the Poisson law and the
-  rounded normal of the same mean and variance (:func:`gaussian_tv`) at the smallest mean charge
-  a site pixel holds in a frame, taken as the bound on each relative figure (the moments agree
-  to the 1/12 e⁻² of rounding; the TV distance bounds any probability computed from a count).
+* **shot** (gaussian vs poisson): what the rounded normal changes in the figures
+  (:func:`gaussian_moment_errors`): a window total is a weighted sum of pixel-frame counts,
+  light frames minus the dark reference, so its mean moves by at most ``2F·sup|E − λ|`` and its
+  variance by at most ``2F²·sup|Var − λ|`` over the means ``λ ≥`` the smallest a site pixel
+  holds in a frame (``F`` the window sum's gain in frames); the noise figure is propagated from
+  the Poisson moments at both levels, so it does not move at all. The power SNR's mean moves by
+  ``(2SΔm + Δm² + ΔVar)/S²``. The total-variation distance (:func:`gaussian_tv`), charged here
+  before, bounds any probability of a count but overstated these moments ≈ 100-fold.
 * **adc** (ideal vs as_built): exact 0 when ``[chip.adc]`` sets no as-built effect (the two
   levels are one converter); otherwise a calibration like kinetics and optics: the scene at the
   expected level with the converter as built (its transition tables summed against the
   Gaussian, :func:`chiptwin.pixel.cms_moments`) and with every effect zeroed.
 * **dsp**: ``rtl`` equals ``fixed`` bit for bit (co-simulated, ``tests/rtl``); ``fixed`` differs
   from ``float`` by the chain's rounding (half an output LSB per rounding step, 0 when M, K and N
-  are powers of two) unless the N-frame accumulator is narrower than its exact width
-  (``[chip.dsp] acc_bits``), where it can wrap: unbounded.
+  are powers of two) and the program's further stages' bounds, per DSP output, carried to the
+  window total the detection reads by the window sum's gain (N × the outputs in a window for
+  the plain sum; :func:`chiptwin.fidelity.auto.window_gain`), unless the N-frame accumulator is
+  narrower than its exact width (``[chip.dsp] acc_bits``), where it can wrap: unbounded.
 
 An error is a distance between the laws of a figure at the two levels, not between two draws:
 a level that samples the reference's law (binned for events) costs nothing even though its draws
@@ -193,6 +199,40 @@ def gaussian_tv(lam: float) -> float:
     upper = special.ndtr((k + 0.5 - lam) / sd)
     lower = np.where(k == 0, 0.0, special.ndtr((k - 0.5 - lam) / sd))
     return float(0.5 * np.sum(np.abs(p - (upper - lower))))
+
+
+def gaussian_moment_errors(lam: float) -> tuple[float, float]:
+    """How the ``gaussian`` shot level's count ``max(0, rint(λ + √λ·z))`` differs from
+    Poisson(λ) in the two moments the figures read: ``(E − λ, Var − λ)``. Unit: e⁻, e⁻².
+
+    Exact sums over the rounded normal's law (the mass below ½ at 0). For λ ≳ 10 the mean is
+    Poisson's to ``exp(−λ/2)`` (the clip at 0) and the variance exceeds it by Sheppard's 1/12
+    (the rounding; Kendall & Stuart, *The Advanced Theory of Statistics* I, §3.18); below, the
+    clip lifts the mean (by at most 0.081 e⁻, at λ ≈ 0.5) and narrows the law (by at most
+    0.173 e⁻², at λ ≈ 1.6).
+    """
+    if not math.isfinite(lam) or lam < 0:
+        raise ValueError(f"lam = {lam!r}: must be a finite mean ≥ 0")
+    if lam == 0.0:
+        return 0.0, 0.0
+    if lam > TV_SUM_MAX_MEAN:
+        return 0.0, 1 / 12
+    sd = math.sqrt(lam)
+    k = np.arange(0, int(lam + 40 * sd + 20), dtype=float)
+    p = special.ndtr((k + 0.5 - lam) / sd) - special.ndtr((k - 0.5 - lam) / sd)
+    p[0] = special.ndtr((0.5 - lam) / sd)
+    mean = float(np.dot(k, p))
+    return mean - lam, float(np.dot(k * k, p) - mean * mean) - lam
+
+
+def gaussian_moment_bounds(lam_min: float) -> tuple[float, float]:
+    """``(sup |E − λ|, sup |Var − λ|)`` of :func:`gaussian_moment_errors` over every mean
+    ``λ ≥ lam_min``: a grid of 241 means from ``lam_min`` to 100 e⁻ (both errors are smooth in
+    λ) and, beyond, their limits 0 and 1/12 (reached to 1e-12 by λ = 100)."""
+    lo = max(lam_min, 1e-3)
+    grid = np.geomspace(lo, max(lo, 100.0), 241)
+    errs = np.array([gaussian_moment_errors(float(x)) for x in grid])
+    return float(np.max(np.abs(errs[:, 0]))), float(max(np.max(np.abs(errs[:, 1])), 1 / 12))
 
 
 @dataclass
@@ -403,5 +443,6 @@ def describe(choice: AutoChoice) -> list[str]:
 
 
 __all__ = ["LEVELS", "ORDER", "AutoChoice", "CachedEstimates", "Estimate", "describe",
-           "figure_errors", "figures", "gaussian_tv", "ideal_adc", "reference_levels", "resolve",
+           "figure_errors", "figures", "gaussian_moment_bounds", "gaussian_moment_errors",
+           "gaussian_tv", "ideal_adc", "reference_levels", "resolve",
            "with_levels"]
