@@ -634,6 +634,11 @@ class Run:
             "exponential decay (pyrosequencing k_a, ATP turnover)")
     save_frames: bool = param(
         False, kind=bool, doc="stream every frame as read to frames.npy in the output folder")
+    beside_physical_law: bool = param(
+        True, kind=bool,
+        doc="under the paper's lambertian_na2 convention: also run the scene with isotropic "
+            "emitters at the expected level and report the signal and power-SNR ratios "
+            "(chiptwin.twin.physical_law; skipped when estimated above 5 s)")
     carry_dark_pixels: bool = param(
         False, kind=bool,
         doc="binned level: carry pixels that see no site light (≤ 0.1 of their noise) at the "

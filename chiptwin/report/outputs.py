@@ -251,6 +251,7 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
         rows.append(("limit of detection", text))
     rows += _optics_rows(summary.get("optics"))
     rows += _assumption_rows(summary.get("assumptions"))
+    rows += _physical_law_rows(summary.get("physical_law"))
     c = summary.get("crosstalk", {})
     if c.get("before_db_median") is not None and c.get("after_db_median") is not None:
         rows.append(("cross-talk (median)", f"{c['before_db_median']:+.1f} dB before, "
@@ -296,6 +297,18 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
                      f"{e['bias_lsb']:.3g} LSB, SQNR {sqnr}"))
     rows += [("warning", w) for w in summary.get("warnings", [])]
     return rows
+
+
+def _physical_law_rows(p: dict[str, Any] | None) -> list[tuple[str, str]]:
+    """Under the paper's convention: what the physical emitter law would read instead."""
+    if not p:
+        return []
+    if not p["computed"]:
+        return [("paper convention (NA²)", f"the {p['emitter']} law's figures not computed: "
+                 f"{p['why_not']}")]
+    return [("paper convention (NA²)", f"with {p['emitter']} emitters instead: signal × "
+             f"{p['signal_ratio']:.3g}, power SNR × {p['snr_power_ratio']:.3g} (site 0, "
+             f"{p['level']} level)")]
 
 
 def _assumption_rows(a: dict[str, Any] | None) -> list[tuple[str, str]]:

@@ -27,7 +27,7 @@ from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
 from chiptwin.dsp._kernels import count_ends_kernel
 from chiptwin.dsp.pipeline import BlockOut, Frame, FrameStack, Pipeline, chain_for
 from chiptwin.dsp.program import is_default
-from chiptwin.twin import levels, shortcuts, stages
+from chiptwin.twin import levels, physical_law, shortcuts, stages
 from chiptwin.twin.results import detect, light_decay_per_s
 from chiptwin.twin.scene import ChainOutput, PixelFrames, Scene, StageTimer, stage_rng
 
@@ -75,7 +75,14 @@ def run(
     check_consistency(s)  # a Scenario built or replaced in Python meets the file's rules too
     s, choice = (resolve or levels.resolve)(s)
     timer = StageTimer()
-    return run_prepared(s, prepare(s, timer), timer, progress, t_start, choice)
+    result = run_prepared(s, prepare(s, timer), timer, progress, t_start, choice)
+    if physical_law.applies(s):  # the paper's convention: the physical law's answer beside it
+        with timer("physical_law"):
+            result.summary["physical_law"] = physical_law.beside(
+                s, lambda sc: run_prepared(sc, prepare(sc)).summary)
+        result.summary["stage_time_s"]["physical_law"] = round(timer.seconds["physical_law"], 6)
+        result.summary["wall_time_s"] = round(time.perf_counter() - t_start, 6)
+    return result
 
 
 def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
@@ -115,6 +122,9 @@ def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
         **(choice.summary() if choice else {}),
     )
     summary["assumptions"] = reference_chip.stated(s)
+    if s.assay.kind != "flux":
+        summary["optics_convention"] = ("paper (NA², Salama et al. 2004 §3.1)"
+                                        if s.optics.law == "lambertian_na2" else "physical")
     if s.run.carry_dark_pixels:
         applies = shortcuts.applies(s, s.run.fidelity.photons, out.pixels, False,
                                     frames_path is not None)

@@ -1,0 +1,80 @@
+"""``summary['physical_law']``: what a scene run under the paper's NA² convention would read with
+the physical emitter law.
+
+The paper (Salama et al., Biosensors & Bioelectronics 19, 2004, §3.1) writes the contact
+collection efficiency as NA², a Lambertian emitter's share of a cone; molecules in solution emit
+isotropically, which through the same stack puts about half that light on the diodes. The
+scenes that reproduce a paper figure keep the convention (their figures are the paper's); each
+such run also says how far the physical law would move its answer: the same scene, isotropic,
+at the ``expected`` photon level with the float DSP (means and variances, no draws, so the ratio
+holds no Monte Carlo noise) against the same scene at those levels under the convention. Ratios of the sites'
+signal and power SNR, the median over the sites and the first site.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from chiptwin.config import Scenario, ScenarioError, cost
+from chiptwin.config.consistency import check_consistency
+
+#: The comparison is left out of a run when its two runs are estimated above this (the scene's
+#: own run is what the user asked for; the comparison is a remark beside it). Unit: s.
+MAX_SECONDS = 5.0
+
+PHYSICAL_LAW = "isotropic"
+"""The law of randomly oriented emitters in solution (the dipole pattern's orientation average)."""
+
+
+def applies(s: Scenario) -> bool:
+    """A contact scene with light from sites under the paper's convention."""
+    return (s.optics.law == "lambertian_na2" and s.optics.coupling == "contact"
+            and s.assay.kind != "flux")
+
+
+def beside(s: Scenario, run_once) -> dict[str, Any] | None:
+    """The figures, or None where the convention is not in force. ``run_once(scenario)`` runs a
+    resolved scenario and returns its summary (the runner's own path, passed in)."""
+    if not applies(s):
+        return None
+    if not s.run.beside_physical_law:
+        return {"emitter": PHYSICAL_LAW, "computed": False,
+                "why_not": "run.beside_physical_law = false"}
+    at = replace(s.run.fidelity, photons="expected", shot="poisson", dsp="")
+    base = replace(s, run=replace(s.run, fidelity=at),
+                   chip=replace(s.chip, dsp=replace(s.chip.dsp, mode="float")))
+    physical = replace(base, optics=replace(base.optics, emitter=PHYSICAL_LAW,
+                                            convention="lambertian_na2"))
+    try:
+        check_consistency(physical)
+        check_consistency(base)
+    except ScenarioError as exc:
+        return {"emitter": PHYSICAL_LAW, "computed": False,
+                "why_not": f"{exc.key} = {exc.value!r}: {exc.allowed}"}
+    seconds = 2 * cost.wall_seconds(base)
+    if seconds > MAX_SECONDS:
+        return {"emitter": PHYSICAL_LAW, "computed": False,
+                "why_not": f"two expected-level runs, ≈ {seconds:.3g} s estimated, above "
+                           f"{MAX_SECONDS:g} s: run the scene with optics.emitter = "
+                           f"\"{PHYSICAL_LAW}\" to compare"}
+    conv, phys = run_once(base)["sites"], run_once(physical)["sites"]
+    signal = np.array([p["signal_e"] / c["signal_e"] if c["signal_e"] else np.nan
+                       for p, c in zip(phys, conv, strict=True)])
+    snr = np.array([p["snr_power"] / c["snr_power"] if c["snr_power"] else np.nan
+                    for p, c in zip(phys, conv, strict=True)])
+    return {"emitter": PHYSICAL_LAW, "computed": True, "level": "expected",
+            "signal_ratio": _round(signal[0]), "snr_power_ratio": _round(snr[0]),
+            "signal_ratio_median": _round(np.nanmedian(signal)),
+            "snr_power_ratio_median": _round(np.nanmedian(snr)),
+            "note": "the paper's NA² convention (lambertian_na2) against isotropic emitters "
+                    "through the same stack, both at the expected photon level"}
+
+
+def _round(x: float) -> float | None:
+    return None if not np.isfinite(x) else round(float(x), 4)
+
+
+__all__ = ["PHYSICAL_LAW", "applies", "beside"]
