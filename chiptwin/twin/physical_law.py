@@ -6,9 +6,9 @@ collection efficiency as NA², a Lambertian emitter's share of a cone; molecules
 isotropically, which through the same stack puts about half that light on the diodes. The
 scenes that reproduce a paper figure keep the convention (their figures are the paper's); each
 such run also says how far the physical law would move its answer: the same scene, isotropic,
-at the ``expected`` photon level with the float DSP (means and variances, no draws, so the ratio
-holds no Monte Carlo noise) against the same scene at those levels under the convention. Ratios of the sites'
-signal and power SNR, the median over the sites and the first site.
+at the ``expected`` photon level with the float DSP (means and variances, no draws, so the
+ratio holds no Monte Carlo noise) against the same scene at those levels under the convention.
+Ratios of the sites' signal and power SNR, the median over the sites and the first site.
 """
 
 from __future__ import annotations
