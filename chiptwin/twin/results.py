@@ -18,6 +18,7 @@ from chiptwin.kinetics import pyro
 from chiptwin.twin import dose_response, saturation, stages
 from chiptwin.twin.optics_summary import optics_figures
 from chiptwin.twin.programs import program_figures
+from chiptwin.twin.reads import call_reads, caller_input, read_figures
 
 if TYPE_CHECKING:
     from chiptwin.chip import ChipRun, Schedule
@@ -210,6 +211,10 @@ def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
     ]
     arrays["flow_values"] = np.array(flow_values)
     arrays["flow_sums_e"] = sums.T
+    values = caller_input(s, arrays["flow_values"])
+    reads = call_reads(s, values, var, np.array(signal), np.array(level_sd))
+    summary["reads"], read_arrays = read_figures(s, values, reads, n_inc)
+    arrays.update(read_arrays)
     flow_of_block = np.searchsorted(edges, out.block_t_s, side="right") - 1
     sites = _site_rows(s, stages.site_pixels(s), np.array(signal), np.array(noise), out, idx,
                        peak_window=np.isin(flow_of_block, ones))
