@@ -1,11 +1,11 @@
 """Reads of a pyrosequencing run: every site's flowgram called, with qualities and figures.
 
 The flow values come normalised by the key's 1-mers
-(:func:`chiptwin.kinetics.pyro.normalise_flows`); the noise the caller weighs each flow with is the one the twin predicts for it: the DSP's
-propagated variance of each flow's window sum (:func:`chiptwin.detection.window_sums`), read at the
-key's empty and single-base flows (the floor and the shot noise per base) and the variance of the
-key's 1-mer reference itself, all in units of that reference
-(:class:`chiptwin.detection.reads.FlowNoise`).
+(:func:`chiptwin.kinetics.pyro.normalise_flows`). The noise the caller weighs each flow with is
+the one the twin predicts for it: the DSP's propagated variance of each flow's window sum
+(:func:`chiptwin.detection.window_sums`), read at the key's empty and single-base flows (the
+floor and the shot noise per base), and the variance of the key's 1-mer reference itself, all in
+units of that reference (:class:`chiptwin.detection.reads.FlowNoise`).
 """
 
 from __future__ import annotations
