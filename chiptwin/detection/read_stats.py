@@ -32,6 +32,15 @@ POSITION_BIN = 25
 QUALITY_BINS = ((0, 10), (10, 15), (15, 20), (20, 25), (25, 30), (30, 35), (35, 41))
 
 
+def called_truth(true_n: np.ndarray, n_called: int | None) -> np.ndarray:
+    """The true counts of the flows a read calls (those after ``n_called`` set to 0): a caller
+    that leaves a flowgram's last flows uncalled is judged on the flows it calls."""
+    t = np.array(true_n, dtype=np.int64)
+    if n_called is not None:
+        t[n_called:] = 0
+    return t
+
+
 def flow_errors(calls: np.ndarray, true_n: np.ndarray) -> np.ndarray:
     """``|c − t|`` per flow."""
     return np.abs(np.asarray(calls, dtype=np.int64) - np.asarray(true_n, dtype=np.int64))

@@ -85,6 +85,7 @@ class Read:
     eps: float
     lam: float
     droop: float
+    n_called: int | None = None  # flows called (None: all); the rest are left uncalled
 
     def bases(self, flow_order: str) -> str:
         return "".join(flow_order[k % len(flow_order)] * int(c) for k, c in enumerate(self.calls))
@@ -273,7 +274,25 @@ def call_dephased(y: np.ndarray, flows: np.ndarray, noise: FlowNoise) -> Read:
         calls[:m] = dephase(y[:m], flows[:m], noise, *par, calls[:m], prior)[0]
         prior = Prior.of(calls, flows)
     calls = polish(y, flows, noise, par, calls, prior)
-    return Read(calls, final_posterior(y, flows, noise, calls, par), *par)
+    return end_read(Read(calls, final_posterior(y, flows, noise, calls, par), *par))
+
+
+#: Flows at the end of a flowgram left uncalled (two cycles of a 4-base order): their calls lean
+#: on the light of strands carried ahead, which no later flow shows, so a wrong length there
+#: explains the data as well as the right one and its posterior is overconfident.
+TAIL_FLOWS = 8
+
+
+def end_read(read: Read) -> Read:
+    """The read without its last :data:`TAIL_FLOWS` flows' bases (called 0, posterior 1 at 0)."""
+    n = read.calls.size
+    keep = max(n - TAIL_FLOWS, 0)
+    calls = read.calls.copy()
+    post = read.posterior.copy()
+    calls[keep:] = 0
+    post[keep:] = 0.0
+    post[keep:, 0] = 1.0
+    return Read(calls, post, read.eps, read.lam, read.droop, keep)
 
 
 #: :func:`polish`: flows tried per round, the standardised residual below which a flow is left
@@ -292,15 +311,32 @@ def polish(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, par: tuple[float,
                          noise.shot, noise.ref, POLISH_TRY, POLISH_Z, POLISH_ROUNDS)
 
 
+def _neighbours(grid: np.ndarray, value: float) -> list[float]:
+    i = int(np.argmin(np.abs(grid - value)))
+    return sorted({float(grid[j]) for j in (i - 1, i, i + 1) if 0 <= j < grid.size} | {value})
+
+
 def final_posterior(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: np.ndarray,
                     par: tuple[float, float, float]) -> np.ndarray:
-    """The posterior the qualities come from: the model of the final calls, their prior, and
-    the variance widened where the read's residuals exceed the predicted noise
+    """The posterior the qualities come from: the model of the final calls and their prior,
+    averaged over the phasing estimate's neighbours on the search grids (ε, λ, δ one step either
+    way, weighted by the read's likelihood under each: the estimate's own uncertainty), with the
+    variance widened where the read's residuals exceed the predicted noise
     (:func:`local_inflation`)."""
-    signal, a, _ = _model(calls, flows, *par)
     prior = Prior.of(calls, flows)
-    return posterior(y, a, signal - a * calls, noise, prior.p_pos(calls, flows), prior.log_len,
-                     local_inflation(y, signal, noise))
+    p_pos = prior.p_pos(calls, flows)
+    posts, logw = [], []
+    for e in _neighbours(EPS_GRID, par[0]):
+        for lm in _neighbours(LAMBDA_GRID, par[1]):
+            for d in _neighbours(DROOP_GRID, par[2]):
+                signal, a, _ = _model(calls, flows, e, lm, d)
+                inflate = local_inflation(y, signal, noise)
+                posts.append(posterior(y, a, signal - a * calls, noise, p_pos, prior.log_len,
+                                       inflate))
+                v = noise.var(signal) * inflate
+                logw.append(-0.5 * float(np.sum((y - signal) ** 2 / v + np.log(v))))
+    w = np.exp(np.array(logw) - max(logw))
+    return np.tensordot(w / w.sum(), np.array(posts), axes=1)
 
 
 def call_rounded(y: np.ndarray, flows: np.ndarray, noise: FlowNoise) -> Read:

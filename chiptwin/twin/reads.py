@@ -10,6 +10,7 @@ units of that reference (:class:`chiptwin.detection.reads.FlowNoise`).
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -25,6 +26,7 @@ from chiptwin.detection.reads import (
 )
 from chiptwin.kinetics import pyro
 from chiptwin.kinetics.phasing import flow_indices
+from chiptwin.pixel.chain import available_cores
 
 #: Largest flowgram value SFF stores: uint16 hundredths (454's Standard Flowgram Format).
 SFF_MAX_X100 = 65535
@@ -85,17 +87,23 @@ def call_reads(s: Scenario, values: np.ndarray, var_e2: np.ndarray, ref_e: np.nd
     flows = flow_indices(a.flow_order, a.n_flows)
     key_n = pyro.key_flow_counts(a.key, a.flow_order)
     gain = 1.0 + spill_ratio(s) ** 2 if a.caller == "dephase" else 1.0  # x_k = y_k − r y_{k−1}
-    reads = []
-    for j, y in enumerate(values):
+
+    def one(j: int) -> Read:
+        y = np.asarray(values[j], dtype=np.float64)
         if not ref_e[j] > 0:
-            y = np.zeros_like(y)
-            noise = FlowNoise(1.0, 0.0, 0.0)
+            y, noise = np.zeros_like(y), FlowNoise(1.0, 0.0, 0.0)
         else:
             noise = site_noise(var_e2[:, j] * gain, float(ref_e[j]), float(ref_sd_e[j]), key_n)
-        y = np.asarray(y, dtype=np.float64)
-        reads.append(call_dephased(y, flows, noise) if a.caller == "dephase"
-                     else call_rounded(y, flows, noise))
-    return reads
+        return (call_dephased(y, flows, noise) if a.caller == "dephase"
+                else call_rounded(y, flows, noise))
+
+    # the caller's kernels release the GIL: reads in threads, each read's result independent of
+    # the thread count (no random draws)
+    workers = min(available_cores(), len(values))
+    if workers <= 1 or a.caller != "dephase":
+        return [one(j) for j in range(len(values))]
+    with ThreadPoolExecutor(workers) as pool:
+        return list(pool.map(one, range(len(values))))
 
 
 def _stats(x: list[float]) -> dict[str, float]:
@@ -113,11 +121,14 @@ def read_figures(s: Scenario, values: np.ndarray, reads: list[Read], true_n: np.
     p_err = [r.base_error() for r in reads]
     quals = [phred(p) for p in p_err]
     sites = []
+    truths = [read_stats.called_truth(true_n, r.n_called) for r in reads]
     for j, r in enumerate(reads):
-        row = read_stats.site_figures(r.calls, true_n, p_err[j])
+        row = read_stats.site_figures(r.calls, truths[j], p_err[j])
         row.update(id=j, incomplete_extension=r.eps, carry_forward=r.lam, droop_per_flow=r.droop)
         sites.append(row)
-    wrong = np.concatenate([read_stats.base_truth(r.calls, true_n) for r in reads])
+    wrong = np.concatenate([read_stats.base_truth(r.calls, t) for r, t in zip(reads, truths,
+                                                                               strict=True)])
+    true_n = truths[0]  # every read calls the same flows
     pe, q = np.concatenate(p_err), np.concatenate(quals)
     bases = sum(x["bases"] for x in sites)
     errors = sum(x["errors"] for x in sites)
