@@ -139,6 +139,12 @@ def _level(s: Scenario, stage: str, default: str, order: tuple[str, ...]) -> str
     return order[0] if level == "auto" else level
 
 
+#: The dephase caller's cost per read and flow (chiptwin.detection.reads.call_dephased:
+#: phasing search, sweeps, hill climb, averaged posterior): pyro_long_read, 128 reads × 400
+#: flows, ≈ 0.1 s a read on one core of a 2-core machine. Unit: s.
+DEPHASE_FLOW_S = 2.5e-4
+
+
 def n_frames(s: Scenario) -> int:
     return s_to_ticks(s.run.duration_s) // s_to_ticks(s.chip.timing.frame_period_s)
 
@@ -196,6 +202,12 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
                               f"{FILM_PROFILE_ANGLES} angles × {nodes} wavelengths × 2 × "
                               f"{FILM_ELEMENT_S:g} s", elements * FILM_ELEMENT_S,
                               "optics.layers, optics.thin_film_um, optics.band_fwhm_nm"))
+    if s.assay.kind == "pyrosequencing" and s.assay.caller == "dephase":
+        sites = n_sites(s)
+        flows = s.assay.n_flows
+        terms.append(CostTerm(f"the dephase caller: {sites} reads × {flows} flows × "
+                              f"{DEPHASE_FLOW_S:g} s", sites * flows * DEPHASE_FLOW_S,
+                              "assay.caller, assay.n_flows, sites.at_pixels"))
     if kinetics == "cascade":
         w = _windows(s)
         terms.append(CostTerm(f"the cascade's yield fit, {CASCADE_FIT_S:g} s, and {w} windows of "

@@ -1,10 +1,11 @@
 """Templates drawn for sequencing scenes: length, base composition, homopolymer lengths, seed.
 
-A drawn template is a chain of homopolymers: each run's base differs from the previous run's and
-is drawn from the composition (G+C share ``gc``, split evenly between G and C, A and T sharing the
-rest), and its length is geometric, ``P(n) ∝ p^(n−1)`` for ``n = 1 … max_run``. With ``p = 0.25``
-and ``gc = 0.5`` the runs are those of a uniformly random sequence (a base repeats with
-probability 1/4); larger ``p`` gives the homopolymer-rich templates that end pyrosequencing reads.
+A drawn template is a chain of homopolymers. Each run's base differs from the previous run's
+and is drawn so that the bases have the composition asked (G+C share ``gc``, split evenly between
+G and C, A and T sharing the rest; :func:`run_base_probs`); its length is geometric,
+``P(n) ∝ p^(n−1)`` for ``n = 1 … max_run``. With ``p = 0.25`` and ``gc = 0.5`` the runs are
+those of a uniformly random sequence (a base repeats with probability 1/4); a larger ``p`` gives
+the homopolymer-rich templates that end pyrosequencing reads.
 """
 
 from __future__ import annotations
@@ -25,6 +26,25 @@ def composition(gc: float) -> np.ndarray:
     if not 0.0 <= gc <= 1.0:
         raise ValueError(f"gc = {gc!r} is out of range: must be in [0, 1]")
     return np.array([(1 - gc) / 2, gc / 2, gc / 2, (1 - gc) / 2])
+
+
+def run_base_probs(gc: float) -> np.ndarray:
+    """Probabilities ``c`` of A, C, G, T for a run's base, before the previous run's base is
+    excluded, that give the bases the composition of :func:`composition`: a run's base follows
+    the previous one with ``P(j | i) = c_j / (1 − c_i)``, whose stationary law is
+    ``π_i ∝ c_i (1 − c_i)`` (runs of every base have one length law, so π is the composition).
+    Solved for ``c_i (1 − c_i) = κ g_i`` with ``Σ c_i = 1`` by bisection on κ."""
+    g = composition(gc)
+    lo, hi = 0.0, 0.25 / g.max()
+
+    def c_of(kappa: float) -> np.ndarray:
+        return 0.5 * (1.0 - np.sqrt(np.maximum(1.0 - 4.0 * kappa * g, 0.0)))
+
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if c_of(mid).sum() < 1.0 else (lo, mid)
+    c = c_of(0.5 * (lo + hi))
+    return c / c.sum()
 
 
 def draw_template(length: int, gc: float, homopolymer_p: float, max_run: int,
@@ -53,7 +73,7 @@ def draw_template(length: int, gc: float, homopolymer_p: float, max_run: int,
         raise ValueError(f"homopolymer_p = {homopolymer_p!r} is out of range: must be in [0, 1)")
     if not 1 <= max_run <= MAX_DRAWN_RUN:
         raise ValueError(f"max_run = {max_run!r} is out of range: must be in 1 … {MAX_DRAWN_RUN}")
-    probs = composition(gc)
+    probs = run_base_probs(gc)
     run_p = homopolymer_p ** np.arange(max_run)
     run_p /= run_p.sum()
     out: list[str] = []
