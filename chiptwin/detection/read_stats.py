@@ -143,3 +143,22 @@ def calibration_table(wrong: np.ndarray, p_error: np.ndarray, quality: np.ndarra
                      "observed_error": k / n, "ci_low": low, "ci_high": high,
                      "calibrated": bool(low <= stated <= high)})
     return rows
+
+
+def flow_value_by_length(values: np.ndarray, true_n: np.ndarray, n_flows: int | None = None,
+                         max_length: int = 8) -> list[dict[str, Any]]:
+    """Mean and standard deviation of the flow value per true homopolymer length, pooled over
+    reads (``values`` (n_reads, n_flows)) and the template's flows (the first ``n_flows`` of
+    them if given): the statistic Balzer et al. (Bioinformatics 26:i420, 2010) measured on 454
+    runs."""
+    last = int(np.flatnonzero(true_n)[-1]) + 1 if np.any(true_n) else 0
+    if n_flows is not None:
+        last = min(last, n_flows)
+    v, t = values[:, :last], np.broadcast_to(true_n[:last], values[:, :last].shape)
+    rows = []
+    for n in range(max_length + 1):
+        x = v[t == n]
+        if x.size >= 2:
+            rows.append({"length": n, "flows": int(x.size), "mean": float(x.mean()),
+                         "sd": float(x.std(ddof=1))})
+    return rows

@@ -86,6 +86,8 @@ class Read:
     lam: float
     droop: float
     n_called: int | None = None  # flows called (None: all); the rest are left uncalled
+    gain: float = 1.0  # the read's 1-mer level re-estimated, relative to the key's
+    corrected: NDArray[np.float64] | None = None  # phase-corrected flow values (a·h + b → h)
 
     def bases(self, flow_order: str) -> str:
         return "".join(flow_order[k % len(flow_order)] * int(c) for k, c in enumerate(self.calls))
@@ -268,13 +270,38 @@ def call_dephased(y: np.ndarray, flows: np.ndarray, noise: FlowNoise) -> Read:
     calls = np.clip(np.rint(y), 0, MAX_CALL).astype(np.int64)
     prior = Prior.of(calls, flows)
     par = (0.0, 0.0, 0.0)
+    gain = 1.0
     for i, n_fit in enumerate(FIT_FLOWS):
         par = estimate_phasing(y, flows, noise, calls, prior, min(n_fit, y.size), par)
         m = min(FIT_FLOWS[i + 1], y.size) if i + 1 < len(FIT_FLOWS) else y.size
         calls[:m] = dephase(y[:m], flows[:m], noise, *par, calls[:m], prior)[0]
         prior = Prior.of(calls, flows)
+        if i == 0:
+            y, noise, gain = rescale(y, flows, noise, calls, par, min(n_fit, y.size))
     calls = polish(y, flows, noise, par, calls, prior)
-    return end_read(Read(calls, final_posterior(y, flows, noise, calls, par), *par))
+    signal, a, _ = _model(calls, flows, *par)
+    corrected = (y - (signal - a * calls)) / np.maximum(a, 1e-3)
+    return end_read(Read(calls, final_posterior(y, flows, noise, calls, par), *par,
+                         gain=gain, corrected=corrected))
+
+
+def rescale(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: np.ndarray,
+            par: tuple[float, float, float], n_fit: int) -> tuple[np.ndarray, FlowNoise, float]:
+    """The read's 1-mer level re-estimated from its first ``n_fit`` called flows (least squares
+    of the values on the model), the values divided by it, and the noise moved with them: the
+    key's three 1-mers set one scale for the whole read, whose error grows with the homopolymer
+    (σ ∝ h, :class:`FlowNoise` ``ref``); the read's many called flows pin it down, leaving
+    the least-squares estimate's own variance."""
+    signal, _, _ = _model(calls, flows, *par)
+    s, v = signal[:n_fit], y[:n_fit]
+    den = float(np.dot(s, s))
+    if den <= 0:
+        return y, noise, 1.0
+    g = float(np.dot(v, s) / den)
+    if not g > 0:
+        return y, noise, 1.0
+    var_g = float(np.dot(s * s, noise.var(s))) / den**2
+    return y / g, FlowNoise(noise.floor / g**2, noise.shot / g, var_g / g**2), g
 
 
 #: Flows at the end of a flowgram left uncalled (two cycles of a 4-base order): their calls lean
@@ -292,7 +319,7 @@ def end_read(read: Read) -> Read:
     calls[keep:] = 0
     post[keep:] = 0.0
     post[keep:, 0] = 1.0
-    return Read(calls, post, read.eps, read.lam, read.droop, keep)
+    return Read(calls, post, read.eps, read.lam, read.droop, keep, read.gain, read.corrected)
 
 
 #: :func:`polish`: flows tried per round, the standardised residual below which a flow is left

@@ -28,6 +28,9 @@ from chiptwin.kinetics import pyro
 from chiptwin.kinetics.phasing import flow_indices
 from chiptwin.pixel.chain import available_cores
 
+#: Flows the phase-corrected flow-value statistics pool (summary ``reads``).
+CORRECTED_STATS_FLOWS = 100
+
 #: Largest flowgram value SFF stores: uint16 hundredths (454's Standard Flowgram Format).
 SFF_MAX_X100 = 65535
 
@@ -148,6 +151,14 @@ def read_figures(s: Scenario, values: np.ndarray, reads: list[Read], true_n: np.
         "homopolymer_errors": read_stats.homopolymer_errors(calls, true_n),
         "accuracy_by_position": read_stats.accuracy_by_position(calls, true_n),
         "calibration": read_stats.calibration_table(wrong, pe, q),
+        # the caller's input values by true homopolymer length, all the template's flows read
+        "flow_value_by_length": read_stats.flow_value_by_length(values, truths[0]),
+        # ... and phase-corrected by the caller's model, (y − leak) / in-phase share, over the
+        # first 100 flows (25 cycles of a 4-base order, where a 454 read is still in phase)
+        "corrected_flow_value_by_length": read_stats.flow_value_by_length(
+            np.array([r.corrected if r.corrected is not None else v
+                      for r, v in zip(reads, values, strict=True)]), truths[0],
+            n_flows=CORRECTED_STATS_FLOWS),
         "phasing_estimated": {
             k: _stats([x[k] for x in sites]) for k in
             ("incomplete_extension", "carry_forward", "droop_per_flow")},
