@@ -157,6 +157,8 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
     top = log_len.size - 1
     nll, signal, calls = _score(y, flows, start, eps, lam, droop, comp, log_len, floor, shot,
                                 ref)
+    if calls.max() > top:  # the start's template merges runs beyond the caller's range
+        return start
     for _ in range(rounds):
         z = np.empty(y.size)
         for k in range(y.size):
@@ -176,7 +178,7 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
                 trial[k] = h
                 t_nll, t_signal, t_ideal = _score(y, flows, trial, eps, lam, droop, comp,
                                                   log_len, floor, shot, ref)
-                if t_nll < nll - 1e-9:
+                if t_nll < nll - 1e-9 and t_ideal.max() <= top:
                     nll, signal, calls = t_nll, t_signal, t_ideal
                     improved = True
                     break

@@ -88,6 +88,7 @@ class Read:
     n_called: int | None = None  # flows called (None: all); the rest are left uncalled
     gain: float = 1.0  # the read's 1-mer level re-estimated, relative to the key's
     corrected: NDArray[np.float64] | None = None  # phase-corrected flow values (a·h + b → h)
+    noise: FlowNoise | None = None  # the noise the posterior was computed under
 
     def bases(self, flow_order: str) -> str:
         return "".join(flow_order[k % len(flow_order)] * int(c) for k, c in enumerate(self.calls))
@@ -108,8 +109,10 @@ def base_error(calls: np.ndarray, post: np.ndarray) -> np.ndarray:
     out = []
     for k in np.flatnonzero(calls):
         h = int(calls[k])
-        p = below[k, :h].copy()  # P(H < i) for i = 1 … h
-        p[-1] += 1.0 - below[k, h]
+        p = np.ones(h)  # a call beyond MAX_CALL: the posterior gives its extra bases no chance
+        m = min(h, MAX_CALL)
+        p[:m] = below[k, :m]  # P(H < i) for i = 1 … h
+        p[-1] = min(p[-1] + (1.0 - below[k, h] if h <= MAX_CALL else 0.0), 1.0)
         out.append(p)
     return np.clip(np.concatenate(out), 0.0, 1.0) if out else np.zeros(0)
 
@@ -282,7 +285,7 @@ def call_dephased(y: np.ndarray, flows: np.ndarray, noise: FlowNoise) -> Read:
     signal, a, _ = _model(calls, flows, *par)
     corrected = (y - (signal - a * calls)) / np.maximum(a, 1e-3)
     return end_read(Read(calls, final_posterior(y, flows, noise, calls, par), *par,
-                         gain=gain, corrected=corrected))
+                         gain=gain, corrected=corrected, noise=noise))
 
 
 def rescale(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: np.ndarray,
@@ -319,7 +322,8 @@ def end_read(read: Read) -> Read:
     calls[keep:] = 0
     post[keep:] = 0.0
     post[keep:, 0] = 1.0
-    return Read(calls, post, read.eps, read.lam, read.droop, keep, read.gain, read.corrected)
+    return Read(calls, post, read.eps, read.lam, read.droop, keep, read.gain, read.corrected,
+                read.noise)
 
 
 #: :func:`polish`: flows tried per round, the standardised residual below which a flow is left
@@ -375,4 +379,4 @@ def call_rounded(y: np.ndarray, flows: np.ndarray, noise: FlowNoise) -> Read:
     ones = np.ones_like(y, dtype=np.float64)
     post = posterior(y, ones, np.zeros_like(ones), noise, prior.p_pos(calls, flows),
                      prior.log_len)
-    return Read(calls, post, 0.0, 0.0, 0.0)
+    return Read(calls, post, 0.0, 0.0, 0.0, noise=noise)

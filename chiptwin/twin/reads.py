@@ -127,7 +127,10 @@ def read_figures(s: Scenario, values: np.ndarray, reads: list[Read], true_n: np.
     truths = [read_stats.called_truth(true_n, r.n_called) for r in reads]
     for j, r in enumerate(reads):
         row = read_stats.site_figures(r.calls, truths[j], p_err[j])
-        row.update(id=j, incomplete_extension=r.eps, carry_forward=r.lam, droop_per_flow=r.droop)
+        row.update(id=j, incomplete_extension=r.eps, carry_forward=r.lam, droop_per_flow=r.droop,
+                   gain=r.gain)
+        if r.noise is not None:  # the caller's noise model: var = floor + shot·m + ref·m²
+            row["noise"] = {"floor": r.noise.floor, "shot": r.noise.shot, "ref": r.noise.ref}
         sites.append(row)
     wrong = np.concatenate([read_stats.base_truth(r.calls, t) for r, t in zip(reads, truths,
                                                                                strict=True)])

@@ -95,3 +95,16 @@ def test_read_lengths_and_errors_tables():
     hp = {r["length"]: r for r in read_stats.homopolymer_errors(calls[None, :], true_n)}
     assert hp[0]["over_calls"] == 1 and hp[3]["under_calls"] == 1 and hp[1]["flows"] == 3
     assert read_stats.called_truth(true_n, 4).tolist() == [1, 0, 2, 0, 0, 0, 0, 0]
+
+
+def test_noisy_reads_stay_within_the_callers_range():
+    """At a 1-mer SNR near 2 the hill climb's trial templates merge runs (a base moved next to
+    a run of its own kind): calls stay within MAX_CALL and every called base has a quality
+    (a study at 0.003 fmol once failed on a 24-mer here)."""
+    rng = np.random.default_rng(4)
+    flows = phasing.flow_indices("TACG", 120)
+    for _ in range(2):
+        y, _, noise = _read(rng, 120, 0.002, 0.01, 0.001, 0.5)
+        read = reads.call_dephased(y, flows, noise)
+        assert read.calls.max() <= reads.MAX_CALL
+        assert read.base_error().size == read.calls.sum()
