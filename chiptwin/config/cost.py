@@ -81,6 +81,10 @@ EVENTS_DRAWN_MAX: int = 20_000
 #: warm process, 1.1–1.4 s as a new process's first run).
 CASCADE_FIT_S: float = 0.8
 CASCADE_WINDOW_S: float = 0.03
+#: The template CASCADE_WINDOW_S was measured on (pyro_1fmol's 18 bases); the solver's state
+#: holds a strand share per template position, and a window costs in proportion: 0.58 s a flow
+#: for pyro_long_read's 400 bases (benchmarks/bench_long_reads.py; 0.03 × 401/19 = 0.63).
+CASCADE_BASES = 18
 #: Per pixel-frame of the converter-as-built's expected moments by the sawtooth's series (the
 #: signal side's E_y[v] and the true-CDS covariance). Unit: s (pyro_1fmol with a 1-LSB
 #: comparator at the expected level: 0.27 s over 194,560 pixel-frames).
@@ -210,9 +214,10 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
                               "assay.caller, assay.n_flows, sites.at_pixels"))
     if kinetics == "cascade":
         w = _windows(s)
+        per = CASCADE_WINDOW_S * max(1.0, (len(s.assay.template) + 1) / (CASCADE_BASES + 1))
         terms.append(CostTerm(f"the cascade's yield fit, {CASCADE_FIT_S:g} s, and {w} windows of "
-                              f"its stiff solver × {CASCADE_WINDOW_S:g} s",
-                              CASCADE_FIT_S + w * CASCADE_WINDOW_S,
+                              f"its stiff solver × {per:.3g} s",
+                              CASCADE_FIT_S + w * per,
                               "run.fidelity.kinetics, assay.n_flows"))
     return terms
 
