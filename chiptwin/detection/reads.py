@@ -303,7 +303,8 @@ def rescale(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: np.ndarra
     g = float(np.dot(v, s) / den)
     if not g > 0:
         return y, noise, 1.0
-    var_g = float(np.dot(s * s, noise.var(s))) / den**2
+    per_flow = FlowNoise(noise.floor, noise.shot)  # the old scale's error is what g estimates
+    var_g = float(np.dot(s * s, per_flow.var(s))) / den**2
     return y / g, FlowNoise(noise.floor / g**2, noise.shot / g, var_g / g**2), g
 
 
