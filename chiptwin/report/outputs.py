@@ -14,11 +14,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from chiptwin.config.outputs import check_out_dir, replacing
-from chiptwin.report.read_plots import read_lines, read_plots
+from chiptwin.report.read_plots import flow_chars, read_lines, read_plots, sff_reads
 from chiptwin.report.sff import write_sff
 from chiptwin.twin.figures import save_figure as _save
 from chiptwin.twin.programs import program_plots
-from chiptwin.twin.reads import flow_chars, sff_reads
 
 if TYPE_CHECKING:
     from chiptwin.twin.runner import Result

@@ -1,4 +1,4 @@
-"""Plots and report lines of a pyrosequencing run's reads (``summary['reads']``)."""
+"""Plots, report lines and SFF records of a pyrosequencing run's reads (``summary['reads']``)."""
 
 from __future__ import annotations
 
@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from chiptwin.config import Scenario
+from chiptwin.report.sff import SffRead
 from chiptwin.twin.figures import save_figure as _save
 
 if TYPE_CHECKING:
@@ -108,3 +110,31 @@ def read_lines(summary: dict[str, Any]) -> list[str]:
                f"{c['observed_error']:.2e} ({c['ci_low']:.1e} … {c['ci_high']:.1e}) |"
                for c in r["calibration"]), ""]
     return lines
+
+
+def sff_reads(s: Scenario, summary: dict[str, Any], arrays: dict[str, np.ndarray]) -> list:
+    """The run's reads as :class:`chiptwin.report.sff.SffRead`, one per site: the caller's flow
+    values (hundredths), bases, phred qualities, flow of each base; quality clip from after the
+    key to the end of the read's Q20 length (1-based, as SFF defines clip points)."""
+    a = s.assay
+    order = a.flow_order
+    key = a.key
+    calls, q = arrays["read_calls"], arrays["read_quality"]
+    off = arrays["read_quality_offsets"]
+    out = []
+    for j, row in enumerate(calls):
+        bases = "".join(order[k % len(order)] * int(c) for k, c in enumerate(row))
+        q20 = summary["reads"]["sites"][j]["q20_read_length"]
+        left = len(key) + 1 if bases.startswith(key) and len(bases) > len(key) else 0
+        out.append(SffRead(
+            name=f"site{j:04d}_px{int(arrays['site_pixel_index'][j]):06d}",
+            flowgram_x100=arrays["read_flowgram_x100"][j], bases=bases,
+            qualities=q[off[j]:off[j + 1]], flow_index=np.repeat(np.arange(row.size), row),
+            clip_qual_left=left, clip_qual_right=min(int(q20), 65535)))
+    return out
+
+
+def flow_chars(s: Scenario) -> str:
+    """The flow characters of the run: the flow order over every flow."""
+    order = s.assay.flow_order
+    return "".join(order[k % len(order)] for k in range(s.assay.n_flows))
