@@ -103,8 +103,8 @@ def nll_kernel(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, floor: floa
 @NJIT
 def dephase_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droop: float,
                    start: np.ndarray, comp: np.ndarray, log_len: np.ndarray, floor: float,
-                   shot: float, ref: float, n_score: int, n_iter: int, window: int,
-                   project: bool) -> tuple:  # pragma: no cover - compiled
+                   shot: float, ref: float, n_score: int, n_iter: int, window: int
+                   ) -> tuple:  # pragma: no cover - compiled
     """The sweep of :func:`chiptwin.detection.reads.dephase`: returns (calls, post, nll)."""
     calls = start.copy()
     best_calls = calls.copy()
@@ -112,9 +112,7 @@ def dephase_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, dro
     best_post = np.zeros((y.size, log_len.size))
     ones = np.ones(y.size)
     for _ in range(n_iter + 1):
-        signal, a, ideal = phase_flows(template_of(calls, flows), flows, eps, lam, droop)
-        if project:
-            calls[:] = ideal  # the flow program of the template the calls spell (a valid call set)
+        signal, a, _ = phase_flows(template_of(calls, flows), flows, eps, lam, droop)
         p_pos = context_prior(calls, flows, comp, comp.size)
         post = posterior_kernel(y, a, signal - a * calls, floor, shot, ref, p_pos, log_len,
                                 ones)

@@ -11,20 +11,23 @@ Two callers, both in flow space on normalised flow values (a 1-mer reads ≈ 1):
     extension ε, carry-forward λ and droop δ (:func:`chiptwin.kinetics.phasing.phased_signal`) is
     predicted from the current calls; each flow's value is then ``a_k·h + b_k``, the in-phase
     strands' share ``a_k`` times the unknown homopolymer length ``h`` plus the out-of-phase leak
-    ``b_k``, and ``h`` is re-called from its posterior; a few iterations converge for the small ε
-    and λ of real instruments (Margulies et al., Nature 437:376, 2005: ε 0.1–0.3 %, λ 1–2 %).
-    ε, λ and δ are estimated from the read itself: a coordinate search over ε and λ that
-    minimises the read's normalised residual, δ by a log-linear fit of the flow values against
-    the undrooped prediction.
+    ``b_k``, and ``h`` is re-called from its posterior (:func:`dephase`, a left-to-right sweep;
+    then :func:`polish`, a hill climb of the whole read's likelihood). ε, λ and δ are estimated
+    from the read itself (:func:`estimate_phasing`: coordinate descent over grids, each point
+    scored by the likelihood of the read's first 96, then 192 flows), and the read's 1-mer level
+    from its called flows (:func:`rescale`). 454: ε 0.1–0.3 %, λ 1–2 % (Margulies et al.,
+    Nature 437:376, 2005). The last :data:`TAIL_FLOWS` flows are left uncalled.
 
 Quality values (phred, Ewing & Green, Genome Res. 8:186, 1998: ``Q = −10·log10 P(error)``)
 come from the posterior of each flow's call under the noise the twin predicts for that flow
 (:class:`FlowNoise`): a flow value for ``h`` is Normal with mean ``a_k·h + b_k`` and variance
-``σ0² + σ1²·m + σr²·m²`` (``m`` the mean): the empty-flow floor (dark, read and quantisation
-noise), the shot noise per incorporated base, and the error of the key's 1-mer reference that
-scales every flow of the read. The prior over ``h`` is the read's own first-pass call histogram
-(smoothed). As 454 does, the ``i``-th base of a called ``h``-mer is wrong when the true length is
-below ``i``; an under-call is charged to the run's last base.
+``floor + shot·m + ref·m²`` (``m`` the mean): the empty-flow floor (dark, read and quantisation
+noise), the shot noise per incorporated base, and the error of the read's 1-mer scale. The prior
+(:class:`Prior`) follows the flow order (the next homopolymer's base is neither the last one's
+nor any dispensed since) with the read's own composition and length histogram. The posterior is
+averaged over the phasing estimate's grid neighbours and widened where the residuals exceed the
+prediction (:func:`final_posterior`). As 454 does, the ``i``-th base of a called ``h``-mer is
+wrong when the true length is below ``i``; an under-call is charged to the run's last base.
 """
 
 from __future__ import annotations
@@ -58,8 +61,6 @@ EPS_GRID = np.array([0.0, 0.001, 0.002, 0.004, 0.008, 0.015])
 LAMBDA_GRID = np.array([0.0, 0.0025, 0.005, 0.0075, 0.01, 0.015, 0.02, 0.03, 0.04])
 """The grids the phasing search walks (fractions per flow), wide of the 454 values."""
 
-DROOP_MAX = 0.05
-"""Largest droop the read's fit may return (per flow)."""
 
 
 @dataclass(frozen=True)
@@ -185,7 +186,6 @@ def _model(calls: np.ndarray, flows: np.ndarray, eps: float, lam: float, droop: 
 #: order): a call changed early shifts the model of every later flow, so later changes wait
 #: until the prefix before them has settled.
 WINDOW = 24
-PROJECT = False
 
 
 def dephase(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, eps: float, lam: float,
@@ -207,7 +207,7 @@ def dephase(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, eps: float, lam:
     calls, post, nll = dephase_kernel(
         np.ascontiguousarray(y, dtype=np.float64), flows, float(eps), float(lam), float(droop),
         start.astype(np.int64), prior.comp, prior.log_len, noise.floor, noise.shot, noise.ref,
-        int(n_score), int(n_iter), WINDOW, PROJECT)
+        int(n_score), int(n_iter), WINDOW)
     return calls, post, float(nll)
 
 
