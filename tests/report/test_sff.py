@@ -91,3 +91,8 @@ def test_run_writes_reads_sff_biopython_reads_back(tmp_path):
         assert rec.letter_annotations["phred_quality"] == q.tolist()
         assert rec.annotations["clip_qual_right"] == \
             result.summary["reads"]["sites"][j]["q20_read_length"]
+    report = (out / "report.md").read_text()
+    assert "## Reads" in report and "read length at Q20" in report
+    for plot in ("flowgram.png", "accuracy_position.png", "homopolymer_errors.png",
+                 "read_length.png", "quality_calibration.png"):
+        assert (out / plot).stat().st_size > 1000 and f"({plot})" in report
