@@ -82,3 +82,22 @@ def test_site_copies_spread_is_the_cv_and_changes_with_the_chip():
     assert abs(draws.mean() - 1.0) < 0.02 and abs(draws.std() / draws.mean() - 0.3) < 0.02
     assert not np.array_equal(stages.site_copies(s, 128), draws[:128])
     assert np.array_equal(stages.site_copies(s, 128), stages.site_copies(s, 128))
+
+
+def test_a_study_replicate_on_another_chip_redraws_the_sites_dna():
+    """vary_chip: each replicate another chip, its sites' DNA copies too (the point's scene is
+    prepared once; with dna_cv its light is prepared again per replicate)."""
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from chiptwin.study import rows
+
+    s = load_scenario(f"{SCENES}/pyro_long_read.toml",
+                      ["sites.at_pixels=[[4, 8], [2, 3]]", "assay.n_flows=20",
+                       "run.duration_s=1220", "chip.fixed_pattern_seed=-1"])
+    task = SimpleNamespace(scenario=s)
+    one = rows._scene(task, replace(s, scenario=replace(s.scenario, seed=1)))[0]
+    two = rows._scene(task, replace(s, scenario=replace(s.scenario, seed=2)))[0]
+    again = rows._scene(task, replace(s, scenario=replace(s.scenario, seed=1)))[0]
+    assert not np.allclose(one.site_photons, two.site_photons)
+    assert np.array_equal(one.site_photons, again.site_photons)
