@@ -32,6 +32,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
 #: Rooms of one layer that may import another of the same layer (the arrow named).
 SIDEWAYS: frozenset[tuple[str, str]] = frozenset({
     ("photons", "kinetics"),  # arrival times of a light source's rate
+    ("detection", "kinetics"),  # the phase-correcting caller predicts flowgrams by phasing
     ("chip", "dsp"),  # the chip model runs the DSP program's stages
     ("study", "fidelity"),  # a study point's auto keys are resolved with calibrations
     ("__main__", "cli"),

@@ -230,6 +230,8 @@ SLOW = {
     "tests/dsp/test_fixed_apytypes.py::test_routine_matches_apytypes_on_a_million_vectors",
     "tests/dsp/test_fixed_properties.py::test_full_precision_ops_are_exact",
     "tests/dsp/test_fixed_properties.py::test_quantize_is_exact",
+    "tests/detection/test_reads.py::test_qualities_are_calibrated_monte_carlo",  # 150 reads
+    "tests/report/test_sff.py::test_run_writes_reads_sff_biopython_reads_back",  # a whole run
 }
 
 #: A test outside the slow tier taking at least this long (setup, call and teardown) is named at

@@ -112,6 +112,39 @@ def _assay(s: Scenario) -> None:
         _fail(s, "assay.key", _short(a.key),
               f"must be a non-empty prefix of the template {_short(a.template)!r}")
     _key_flows(s)
+    _long_reads(s)
+
+
+#: The longest homopolymer the phase-correcting caller resolves (bases): its posterior runs
+#: over 0 … this (chiptwin.detection.reads.MAX_CALL, kept equal by a test).
+CALLER_MAX_HOMOPOLYMER = 12
+
+
+def _long_reads(s: Scenario) -> None:
+    """A drawn template as long as asked; homopolymers the caller resolves; the cascade's
+    limits (it models phasing, not droop nor a per-site spread of the DNA)."""
+    a = s.assay
+    if a.template_length and len(a.template) != len(a.key) + a.template_length:
+        _fail(s, "assay.template_length", a.template_length,
+              f"is drawn by the scenario loader into template (key + {a.template_length} "
+              f"bases); this template has {len(a.template)} bases: set template = \"\" in "
+              "the file, or leave template_length at 0")
+    if a.caller == "dephase":
+        longest, run, prev = 0, 0, ""
+        for b in a.template:
+            run = run + 1 if b == prev else 1
+            longest, prev = max(longest, run), b
+        if longest > CALLER_MAX_HOMOPOLYMER:
+            _fail(s, "assay.template", _short(a.template),
+                  f"has a homopolymer of {longest} bases; the dephase caller resolves up to "
+                  f"{CALLER_MAX_HOMOPOLYMER}")
+    if s.run.fidelity.kinetics == "cascade":
+        for key in ("droop_per_flow", "dna_cv"):
+            if getattr(a, key):
+                _fail(s, f"assay.{key}", getattr(a, key),
+                      "must be 0 with run.fidelity.kinetics = \"cascade\" (the cascade models "
+                      "incomplete extension and carry-forward, not droop nor a per-site DNA "
+                      "spread); use closed_form")
 
 
 #: Rates the cascade level takes: its enzyme amounts are sized from k_t and k_a

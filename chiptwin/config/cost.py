@@ -107,6 +107,10 @@ EVENTS_DRAWN_MAX: int = 20_000
 #: warm process, 1.1–1.4 s as a new process's first run).
 CASCADE_FIT_S: float = 0.8
 CASCADE_WINDOW_S: float = 0.03
+#: The template CASCADE_WINDOW_S was measured on (pyro_1fmol's 18 bases); the solver's state
+#: holds a strand share per template position, and a window costs in proportion: 0.58 s a flow
+#: for pyro_long_read's 400 bases (benchmarks/bench_long_reads.py; 0.03 × 401/19 = 0.63).
+CASCADE_BASES = 18
 #: Per pixel-frame of the converter-as-built's expected moments by the sawtooth's series (the
 #: signal side's E_y[v] and the true-CDS covariance). Unit: s (pyro_1fmol with a 1-LSB
 #: comparator at the expected level: 0.27 s over 194,560 pixel-frames).
@@ -174,6 +178,12 @@ def _level(s: Scenario, stage: str, default: str, order: tuple[str, ...]) -> str
     return order[0] if level == "auto" else level
 
 
+#: The dephase caller's cost per read and flow (chiptwin.detection.reads.call_dephased:
+#: phasing search, sweeps, hill climb, averaged posterior): pyro_long_read, 128 reads × 400
+#: flows, ≈ 0.1 s a read on one core of a 2-core machine. Unit: s.
+DEPHASE_FLOW_S = 2.5e-4
+
+
 def n_frames(s: Scenario) -> int:
     return s_to_ticks(s.run.duration_s) // s_to_ticks(s.chip.timing.frame_period_s)
 
@@ -234,11 +244,18 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
                               f"footprints × {TOP_FOOTPRINT_PART_S:g} s",
                               parts * TOP_FOOTPRINT_PART_S,
                               "optics.top.medium, sites.footprint_radius_um"))
+    if s.assay.kind == "pyrosequencing" and s.assay.caller == "dephase":
+        sites = n_sites(s)
+        flows = s.assay.n_flows
+        terms.append(CostTerm(f"the dephase caller: {sites} reads × {flows} flows × "
+                              f"{DEPHASE_FLOW_S:g} s", sites * flows * DEPHASE_FLOW_S,
+                              "assay.caller, assay.n_flows, sites.at_pixels"))
     if kinetics == "cascade":
         w = _windows(s)
+        per = CASCADE_WINDOW_S * max(1.0, (len(s.assay.template) + 1) / (CASCADE_BASES + 1))
         terms.append(CostTerm(f"the cascade's yield fit, {CASCADE_FIT_S:g} s, and {w} windows of "
-                              f"its stiff solver × {CASCADE_WINDOW_S:g} s",
-                              CASCADE_FIT_S + w * CASCADE_WINDOW_S,
+                              f"its stiff solver × {per:.3g} s",
+                              CASCADE_FIT_S + w * per,
                               "run.fidelity.kinetics, assay.n_flows"))
     return terms
 

@@ -113,8 +113,28 @@ def _scenario(raw: dict[str, Any], source: str) -> Scenario:
     scenario = _build(Scenario, raw, source, "", skip={"source"})
     scenario = dataclasses.replace(scenario, source=source)
     _check_assay_keys(raw["assay"], scenario.assay.kind, source)
+    scenario = _draw_template(scenario, raw["assay"], source)
     check_consistency(scenario)
     return scenario
+
+
+def _draw_template(s: Scenario, raw_assay: dict[str, Any], source: str) -> Scenario:
+    """``[assay] template_length > 0``: the template is the key plus a drawn insert
+    (:func:`chiptwin.kinetics.templates.drawn_template`), resolved once here."""
+    a = s.assay
+    if a.kind != "pyrosequencing" or not a.template_length:
+        return s
+    if raw_assay.get("template", "") not in ("", a.key):
+        raise ScenarioError(source, "assay.template", a.template[:40],
+                            "give a template or template_length (a drawn one), not both")
+    from chiptwin.kinetics.templates import drawn_template
+
+    if not a.key or set(a.key.upper()) - set("ACGT"):
+        raise ScenarioError(source, "assay.key", a.key, "must be 1 or more of A, C, G, T")
+    template = drawn_template(a.key, a.template_length, a.template_gc,
+                              a.template_homopolymer_p, a.template_homopolymer_max,
+                              a.template_seed)
+    return dataclasses.replace(s, assay=dataclasses.replace(a, template=template))
 
 
 def _build(cls: type, raw: Any, source: str, prefix: str, skip: frozenset | set = frozenset()):

@@ -20,7 +20,9 @@ ASSAY_KINDS = ("pyrosequencing", "atp", "luciferase_label", "substrate", "cataly
 ASSAY_KIND_KEYS: dict[str, frozenset[str]] = {
     "pyrosequencing": frozenset(
         {"dna_fmol", "template", "key", "flow_order", "n_flows", "flow_period_s", "k_t_per_s",
-         "k_a_per_s", "quantum_yield", "photons_per_incorporation"}
+         "k_a_per_s", "quantum_yield", "photons_per_incorporation", "template_length",
+         "template_gc", "template_homopolymer_p", "template_homopolymer_max", "template_seed",
+         "incomplete_extension", "carry_forward", "droop_per_flow", "dna_cv", "caller"}
     ),
     "atp": frozenset({"atp_fmol", "turnover_per_s", "quantum_yield"}),
     "luciferase_label": frozenset({"luciferase_amol", "turnover_per_s", "quantum_yield"}),
@@ -94,6 +96,45 @@ class Assay:
         doc="measured yield; 0 = derive α·k_t/k_a = 17.6 (eq. 19); Ronaghi ≈ 0.01; ≤ 1e6, "
             "five orders above eq. 19"
     )
+    # long reads: a drawn template, the per-flow losses that end reads, the per-site DNA spread
+    template_length: int = param(
+        0, kind=int, lo=0, hi=5000,
+        doc="bases of a drawn insert after the key (template = key + insert); 0 = use "
+            "`template`; ≤ 5,000, beyond the longest pyrosequencing reads (454 GS FLX+ ≈ 1,000)")
+    template_gc: float = param(
+        0.5, lo=0.0, hi=1.0, doc="G+C share of the drawn insert (choice 0.5); 0 … 1")
+    template_homopolymer_p: float = param(
+        0.25, lo=0.0, hi=0.9,
+        doc="geometric continuation probability of a drawn homopolymer; 0.25 = a uniformly "
+            "random sequence; ≤ 0.9 (mean run 10 bases)")
+    template_homopolymer_max: int = param(
+        8, kind=int, lo=1, hi=12,
+        doc="longest drawn homopolymer, bases; 1 … 12, the caller's limit (454 reads resolve "
+            "≈ 8: Balzer et al., Bioinformatics 26:i420, 2010)")
+    template_seed: int = param(
+        0, kind=int, lo=0, hi=2**63 - 1,
+        doc="seed of the drawn template (its own stream, so replicates share the template)")
+    incomplete_extension: float = param(
+        0.0, lo=0.0, hi=0.05,
+        doc="ε, share of strands not extended per flow; 0 = none; 454: 0.001–0.003 (Margulies "
+            "et al., Nature 437:376, 2005); ≤ 0.05, where no read passes 100 flows")
+    carry_forward: float = param(
+        0.0, lo=0.0, hi=0.05,
+        doc="λ, share of strands extended one homopolymer ahead per flow (the previous "
+            "nucleotide not yet removed); 0 = none; 454: 0.01–0.02 (Margulies 2005); ≤ 0.05")
+    droop_per_flow: float = param(
+        0.0, lo=0.0, hi=0.02,
+        doc="share of the active template (or polymerase) lost per flow, signal droop; 0 = "
+            "none; choice 0.001 in the long-read scene (454 reads lose about half their light "
+            "over 400–800 flows); ≤ 0.02 (the signal halves within 35 flows)")
+    dna_cv: float = param(
+        0.0, lo=0.0, hi=1.0,
+        doc="coefficient of variation of the DNA copies per site, drawn per site and per chip "
+            "(gamma law); 0 = every site holds dna_fmol; ≤ 1 (exponential spread)")
+    caller: str = param(
+        "round", choices=("round", "dephase"),
+        doc="base caller: round (each flow value rounded) or dephase (phase-correcting, "
+            "Eltoukhy & El Gamal, ICASSP 2006), both with phred qualities")
     # ATP assay (eq. 12) and luciferase label (eq. 13)
     atp_fmol: float = param(1.0, lo=FMOL_MIN, hi=FMOL_MAX,
                             doc="fmol ATP, V·[ATP0], " + AMOUNTS)

@@ -73,6 +73,7 @@ _LAZY: dict[str, str] = {
     "photon_yield": "chiptwin.kinetics.calibrate",
     "single_flow_rate": "chiptwin.kinetics.calibrate",
     "phased_flows": "chiptwin.kinetics.phasing",
+    "phased_signal": "chiptwin.kinetics.phasing",
     "reversible_photons": "chiptwin.kinetics.reversible",
     "reversible_product_M": "chiptwin.kinetics.reversible",
     "reversible_rate": "chiptwin.kinetics.reversible",

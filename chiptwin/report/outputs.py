@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from chiptwin.config.outputs import check_out_dir, replacing
+from chiptwin.report.read_plots import flow_chars, read_lines, read_plots, sff_reads
+from chiptwin.report.sff import write_sff
 from chiptwin.twin.figures import save_figure as _save
 from chiptwin.twin.programs import program_plots
 
@@ -30,6 +32,9 @@ def write_outputs(result: Result, out_dir: str | Path) -> Path:
         if result.frames_path is not None:  # [run] save_frames: streamed during the run
             shutil.move(result.frames_path, tmp / "frames.npy")
             result.frames_path = None
+        if "read_calls" in result.arrays:  # pyrosequencing: every site's read, in SFF
+            write_sff(tmp / "reads.sff", flow_chars(result.scenario), result.scenario.assay.key,
+                      sff_reads(result.scenario, result.summary, result.arrays))
         plots = make_plots(result, tmp)
         (tmp / "report.md").write_text(report_markdown(result.summary, plots))
     return out
@@ -80,6 +85,8 @@ def make_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
             ax.axhline(n, color="grey", lw=0.5, ls=":")
         plots.append(_save(fig, folder, "pyrogram.png", "Pyrogram of site 0"))
 
+    if "reads" in result.summary:
+        plots += read_plots(result, folder)
     if "dose_response" in result.summary:
         plots.append(_dose_response_plot(result.summary["dose_response"], a, folder))
     if any(site.get("fills") for site in result.summary.get("saturation", {}).get("sites", [])):
@@ -206,6 +213,8 @@ def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> st
                   f"error against the reference {summary['fidelity_error_estimate']}:", ""]
         lines += [f"- {stage}: {why}" for stage, why in summary["fidelity_reason"].items()]
     lines += ["", f"SNR: {summary['snr_definition']}", ""]
+    if "reads" in summary:
+        lines += read_lines(summary)
     lines += [f"![{cap}]({name})\n\n*{cap}*\n" for name, cap in plots]
     return "\n".join(lines) + "\n"
 
@@ -241,6 +250,12 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
         ok = summary["called_sequence"] == summary["true_sequence"]
         rows.append(("true sequence", summary["true_sequence"]))
         rows.append(("called sequence", summary["called_sequence"] + ("  ✓" if ok else "  ✗")))
+    reads = summary.get("reads", {})
+    if reads.get("caller") == "dephase":
+        q20 = reads["q20_read_length"]
+        rows.append(("read length at Q20", f"median {q20['median']:.0f} bases (p10 "
+                     f"{q20['p10']:.0f}, min {q20['min']:.0f}) of {reads['n_reads']} reads; "
+                     f"accuracy {100 * reads['read_accuracy']:.2f} %; reads.sff"))
     if "lod_amol" in summary.get("dose_response", {}):
         d = summary["dose_response"]
         text = f"{d['lod_amol']:.3g} amol ({d['lod_molecules']:.3g} molecules), blank + 3σ"

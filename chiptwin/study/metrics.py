@@ -96,7 +96,40 @@ def _min_site(key: str) -> Callable[[Result], float]:
     return lambda r: float(min(s[key] for s in r.summary["sites"]))
 
 
+def _reads(key: str, stat: str) -> Callable[[Result], float]:
+    return lambda r: float(r.summary["reads"][key][stat])
+
+
+def _read_accuracy(r: Result) -> tuple[int, int]:
+    """Correct bases of the sites' reads within the flows they call: template bases read
+    minus errors, of the bases called (at least the template's, clamped)."""
+    reads = r.summary["reads"]
+    n = sum(min(s["bases"], s["template_bases"]) for s in reads["sites"])
+    return max(n - reads["errors"], 0), max(n, 1)
+
+
+def _homopolymer_errors(r: Result) -> tuple[int, int]:
+    """Miscalled flows among the flows that read a homopolymer of 2 bases or more."""
+    rows = [h for h in r.summary["reads"]["homopolymer_errors"] if h["length"] >= 2]
+    return (sum(h["over_calls"] + h["under_calls"] for h in rows),
+            max(sum(h["flows"] for h in rows), 1))
+
+
 _METRICS = [
+    Metric("q20_read_length", "mean", "bases", "median over the sites of the read length at "
+           "Q20 (the most bases whose stated error probabilities sum to ≤ 1 % of them)",
+           _reads("q20_read_length", "median"), pyro_only=True),
+    Metric("q20_read_length_p10", "mean", "bases", "10th percentile over the sites of the read "
+           "length at Q20 (nine sites in ten read at least this)",
+           _reads("q20_read_length", "p10"), pyro_only=True),
+    Metric("read_length_99", "mean", "bases", "median over the sites of the read length at "
+           "99 % accuracy (errors against the template ≤ 1 % of the bases)",
+           _reads("read_length_99", "median"), pyro_only=True),
+    Metric("read_accuracy", "rate", "bases", "bases called right, of the bases the sites' reads "
+           "call within the template (flow-space errors)", _read_accuracy, pyro_only=True),
+    Metric("homopolymer_error_rate", "rate", "flows", "miscalled flows (over- or under-calls) "
+           "among the flows reading a homopolymer of ≥ 2 bases", _homopolymer_errors,
+           pyro_only=True),
     Metric("calls_correct", "rate", "reads", "reads equal to the whole template, of all sites' "
            "reads (1 fmol headline: the chip calls the template)", _calls, pyro_only=True),
     Metric("base_error_rate", "rate", "bases", "per-base errors (edit distance of each called "

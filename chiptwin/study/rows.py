@@ -83,6 +83,8 @@ def _scene(task: RowTask, s: Scenario):
     scene, resolved, choice = cached
     if s.chip.fixed_pattern_seed < 0:  # every replicate another chip: redraw PRNU/DSNU
         scene = replace(scene, sensor=chip_sensor(s))
+        if s.assay.kind == "pyrosequencing" and s.assay.dna_cv:  # ... and its sites' DNA
+            scene = prepare(replace(resolved, scenario=s.scenario))
     return scene, replace(resolved, scenario=s.scenario), choice
 
 

@@ -14,10 +14,12 @@ import numpy as np
 
 from chiptwin.config import Scenario, ScenarioError
 from chiptwin.detection import snr, window_sums
+from chiptwin.detection.reads import TAIL_FLOWS
 from chiptwin.kinetics import pyro
 from chiptwin.twin import dose_response, saturation, stages
 from chiptwin.twin.optics_summary import optics_figures
 from chiptwin.twin.programs import program_figures
+from chiptwin.twin.reads import call_reads, caller_input, read_figures
 
 if TYPE_CHECKING:
     from chiptwin.chip import ChipRun, Schedule
@@ -210,12 +212,34 @@ def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
     ]
     arrays["flow_values"] = np.array(flow_values)
     arrays["flow_sums_e"] = sums.T
+    values = caller_input(s, arrays["flow_values"])
+    reads = call_reads(s, values, var, np.array(signal), np.array(level_sd))
+    summary["reads"], read_arrays = read_figures(s, values, reads, n_inc)
+    arrays.update(read_arrays)
+    if a.caller == "dephase":  # the scene's caller spells the reads the headline compares
+        _dephased_sequences(summary, nucs, read_arrays)
     flow_of_block = np.searchsorted(edges, out.block_t_s, side="right") - 1
     sites = _site_rows(s, stages.site_pixels(s), np.array(signal), np.array(noise), out, idx,
                        peak_window=np.isin(flow_of_block, ones))
     for site, sd in zip(sites, level_sd, strict=True):
         site["signal_sd_e"] = sd
     return sites
+
+
+def _dephased_sequences(summary: dict, nucs: list[str], read_arrays: dict) -> None:
+    """``called_sequence(s)``, ``true_sequence`` and the flows' ``called_n`` from the dephase
+    caller's reads, over the flows it calls (its last flows are left uncalled)."""
+    calls, true_n = read_arrays["read_calls"], read_arrays["read_true_n"].copy()
+    true_n[max(len(nucs) - TAIL_FLOWS, 0):] = 0
+
+    def spell(row: np.ndarray) -> str:
+        return "".join(n * int(c) for n, c in zip(nucs, row, strict=True))
+
+    summary["true_sequence"] = spell(true_n)
+    summary["called_sequences"] = [spell(row) for row in calls]
+    summary["called_sequence"] = summary["called_sequences"][0]
+    for f, flow in enumerate(summary["flows"]):
+        flow["called_n"] = int(calls[0, f])
 
 
 #: Percentiles of the per-site SNR given in ``summary['array']``.

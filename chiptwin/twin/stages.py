@@ -55,6 +55,30 @@ def flow_program(s: Scenario) -> tuple[list[str], np.ndarray]:
     return pyro.flow_incorporations(a.template, a.flow_order, a.n_flows)
 
 
+def expected_incorporations(s: Scenario) -> np.ndarray:
+    """Mean bases added per starting strand in each flow (pyrosequencing): the flow program's
+    counts, or with ``incomplete_extension``, ``carry_forward`` or ``droop_per_flow`` the phased,
+    drooping flowgram (:func:`chiptwin.kinetics.phasing.phased_signal`; Eltoukhy & El Gamal,
+    ICASSP 2006). Unit: incorporations per strand."""
+    a = s.assay
+    if not (a.incomplete_extension or a.carry_forward or a.droop_per_flow):
+        return flow_program(s)[1]
+    return kinetics.phased_signal(a.template, a.flow_order, a.n_flows,
+                                  a.incomplete_extension, a.carry_forward, a.droop_per_flow)[0]
+
+
+def site_copies(s: Scenario, n: int) -> np.ndarray:
+    """Each site's DNA copies relative to ``dna_fmol``: 1, or with ``[assay] dna_cv`` a gamma
+    draw of mean 1 and that coefficient of variation per site, from the run's ``dna_copies``
+    stream (a new chip per seed). Clonal beads or wells vary in template load; a gamma law is
+    the choice (positive, its CV a single number)."""
+    cv = s.assay.dna_cv if s.assay.kind == "pyrosequencing" else 0.0
+    if not cv:
+        return np.ones(n)
+    k = 1.0 / cv**2
+    return stage_rng(s.scenario.seed, "dna_copies").gamma(k, 1.0 / k, size=n)
+
+
 def light_source(s: Scenario) -> LightSource:
     """The light of every site. Unit: photons/s.
 
@@ -71,7 +95,7 @@ def light_source(s: Scenario) -> LightSource:
     n = len(site_pixels(s))
     if s.run.fidelity.kinetics == "cascade":
         return _cascade_source(s, n)
-    if n > 1 and site_scale(s) is None:  # identical sites: one evaluation, shared
+    if n > 1 and site_scale(s) is None and not s.assay.dna_cv:  # identical sites: shared
         return Replicated(_closed_form_source(s, 1), n)
     return scale_source(s, _closed_form_source(s, n))
 
@@ -119,9 +143,9 @@ def _closed_form_source(s: Scenario, n: int) -> LightSource:
     """Every site with the ``[assay]`` amount (``[sites] amounts_fmol`` scales it after)."""
     a = s.assay
     if a.kind == "pyrosequencing":
-        _, n_inc = flow_program(s)
         return kinetics.pyrosequencing(
-            np.full(n, a.dna_fmol * FMOL), n_inc, a.flow_period_s, start_s=a.start_s,
+            a.dna_fmol * FMOL * site_copies(s, n), expected_incorporations(s), a.flow_period_s,
+            start_s=a.start_s,
             turnover_per_s=a.k_t_per_s, apyrase_per_s=a.k_a_per_s, alpha=a.quantum_yield,
             photons_per_incorporation=a.photons_per_incorporation or None,
         )
@@ -159,6 +183,9 @@ def _cascade_source(s: Scenario, n: int) -> LightSource:
     params = kinetics.CascadeParams.from_closed_form(a.k_t_per_s, a.k_a_per_s, a.quantum_yield)
     if a.photons_per_incorporation:
         params = _fitted_yield(a.photons_per_incorporation, params, a.dna_fmol * FMOL)
+    if a.incomplete_extension or a.carry_forward:
+        params = replace(params, incomplete_extension=a.incomplete_extension,
+                         carry_forward=a.carry_forward)
     return kinetics.cascade_pyrosequencing(np.full(n, a.dna_fmol * FMOL), a.template,
                                            a.flow_order, a.n_flows, a.flow_period_s, a.start_s,
                                            params)

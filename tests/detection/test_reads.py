@@ -1,0 +1,110 @@
+"""The base callers: posterior against numpy, the flow order's prior, dephasing, and quality
+calibration by Monte Carlo."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from chiptwin.config.consistency import CALLER_MAX_HOMOPOLYMER
+from chiptwin.detection import read_stats, reads
+from chiptwin.detection._read_kernels import context_prior
+from chiptwin.kinetics import phasing, templates
+
+
+def test_caller_limit_matches_the_consistency_rule():
+    assert reads.MAX_CALL == CALLER_MAX_HOMOPOLYMER
+
+
+def test_posterior_matches_numpy():
+    rng = np.random.default_rng(2)
+    y, a, b = rng.uniform(-0.2, 5, 50), rng.uniform(0.3, 1, 50), rng.uniform(0, 0.3, 50)
+    noise = reads.FlowNoise(0.01, 0.004, 0.001)
+    p_pos = rng.uniform(0.01, 0.99, 50)
+    log_len = np.log(np.r_[1.0, np.full(reads.MAX_CALL, 1.0 / reads.MAX_CALL)])
+    post = reads.posterior(y, a, b, noise, p_pos, log_len)
+    h = np.arange(reads.MAX_CALL + 1)
+    mean = a[:, None] * h + b[:, None]
+    var = noise.var(mean)
+    prior = np.where(h == 0, np.log(1 - p_pos)[:, None], np.log(p_pos)[:, None] + log_len)
+    ll = -0.5 * (y[:, None] - mean) ** 2 / var - 0.5 * np.log(var) + prior
+    ref = np.exp(ll - ll.max(axis=1, keepdims=True))
+    assert np.allclose(post, ref / ref.sum(axis=1, keepdims=True), atol=1e-12)
+
+
+def test_context_prior_follows_the_flow_order():
+    """After a T, flows A, C, G: A takes 1/3, C (A passed) 1/2, G 1; T again is forbidden."""
+    flows = phasing.flow_indices("TACG", 5)
+    p = context_prior(np.array([1, 0, 0, 0, 0]), flows, np.full(4, 0.25), 4)
+    assert np.allclose(p[1:4], [1 / 3, 1 / 2, 1 - 0.1], atol=1e-12)  # capped at 1 − P_POS_MIN
+    assert p[4] == pytest.approx(0.1)  # T after T: the floor
+
+
+def _read(rng, n_flows, eps, lam, droop, sigma):
+    t = "TCAG" + templates.draw_template(n_flows, 0.5, 0.3, 6, rng)
+    s, _, ideal = phasing.phased_signal(t, "TACG", n_flows, eps, lam, droop)
+    noise = reads.FlowNoise(sigma**2, (sigma / 2) ** 2)
+    return s + rng.normal(0, 1, n_flows) * np.sqrt(noise.var(s)), ideal, noise
+
+
+def test_dephase_reads_through_phasing_where_rounding_fails():
+    rng = np.random.default_rng(3)
+    flows = phasing.flow_indices("TACG", 300)
+    y, ideal, noise = _read(rng, 300, 0.002, 0.01, 0.001, 0.03)
+    read = reads.call_dephased(y, flows, noise)
+    truth = read_stats.called_truth(ideal, read.n_called)
+    rounded = reads.call_rounded(y, flows, noise)
+    assert np.abs(read.calls - truth).sum() <= 2
+    assert np.abs(rounded.calls - ideal).sum() >= 20
+    assert (read.eps, read.lam, read.droop) == pytest.approx((0.002, 0.01, 0.001), abs=0.0011)
+
+
+def test_qualities_are_calibrated_monte_carlo():
+    """Bases binned by stated quality show the stated error rate, within the 99 % Clopper–
+    Pearson interval of the observed rate, from Q10 to Q30: 150 drawn reads of 200 flows,
+    454-like noise (0-mer sd 0.08; Balzer et al. 2010 measured 0.074), ε 0.2 %, λ 1 %,
+    droop 0.1 %."""
+    rng = np.random.default_rng(11)
+    flows = phasing.flow_indices("TACG", 200)
+    wrong, p_err = [], []
+    for _ in range(150):
+        y, ideal, noise = _read(rng, 200, 0.002, 0.01, 0.001, 0.08)
+        read = reads.call_dephased(y, flows, noise)
+        wrong.append(read_stats.base_truth(read.calls,
+                                           read_stats.called_truth(ideal, read.n_called)))
+        p_err.append(read.base_error())
+    w, p = np.concatenate(wrong), np.concatenate(p_err)
+    table = read_stats.calibration_table(w, p, reads.phred(p), confidence=0.99)
+    rows = [r for r in table if 10 <= r["q_lo"] < 30]
+    assert len(rows) == 4 and sum(r["bases"] for r in rows) >= 200
+    assert sum(r["errors"] for r in table) > 20  # errors happen: the test can fail
+    for r in rows:
+        assert r["ci_low"] <= r["stated_error"] <= r["ci_high"], r
+
+
+def test_read_lengths_and_errors_tables():
+    true_n = np.array([1, 0, 2, 0, 1, 3, 0, 1])
+    calls = np.array([1, 0, 2, 1, 1, 2, 0, 1])  # an insertion at flow 3, a deletion at 5
+    assert read_stats.flow_errors(calls, true_n).tolist() == [0, 0, 0, 1, 0, 1, 0, 0]
+    assert read_stats.length_at_accuracy(calls, true_n, 0.01) == 3
+    assert read_stats.length_at_accuracy(calls, true_n, 0.25) == 8
+    assert read_stats.length_at_quality(np.array([0.0, 0.0, 0.02, 0.5]), 0.01) == 3
+    assert read_stats.length_at_quality(np.array([0.05, 0.0, 0.0]), 0.01) == 0
+    assert read_stats.base_truth(calls, true_n).tolist() == [
+        False, False, False, True, False, False, True, False]
+    hp = {r["length"]: r for r in read_stats.homopolymer_errors(calls[None, :], true_n)}
+    assert hp[0]["over_calls"] == 1 and hp[3]["under_calls"] == 1 and hp[1]["flows"] == 3
+    assert read_stats.called_truth(true_n, 4).tolist() == [1, 0, 2, 0, 0, 0, 0, 0]
+
+
+def test_noisy_reads_stay_within_the_callers_range():
+    """At a 1-mer SNR near 2 the hill climb's trial templates merge runs (a base moved next to
+    a run of its own kind): calls stay within MAX_CALL and every called base has a quality
+    (a study at 0.003 fmol once failed on a 24-mer here)."""
+    rng = np.random.default_rng(4)
+    flows = phasing.flow_indices("TACG", 120)
+    for _ in range(2):
+        y, _, noise = _read(rng, 120, 0.002, 0.01, 0.001, 0.5)
+        read = reads.call_dephased(y, flows, noise)
+        assert read.calls.max() <= reads.MAX_CALL
+        assert read.base_error().size == read.calls.sum()
