@@ -531,10 +531,7 @@ def _converter(s: Scenario) -> None:
         key, value = (("chip.adc.inl_table", adc.inl_table) if adc.inl_table else
                       ("chip.adc.inl_shape", adc.inl_shape))
         _fail(s, key, value, 'a transition table needs inl_shape = "table" and an inl_table file')
-    try:
-        folder = Path(s.source).parent if Path(s.source).is_file() else Path.cwd()
-    except OSError:  # a study point's "file [key=value, …]" may pass a file name's length
-        folder = Path.cwd()
+    folder = Path(s.source).parent if Path(s.source).is_file() else Path.cwd()
     try:
         spec = pixel.AsBuilt.from_keys(adc, folder)
         if spec.ideal:

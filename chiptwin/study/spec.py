@@ -63,6 +63,10 @@ MAX_AXIS_VALUES = 1000
 #: Replicates per point: 10⁴ resolves a rate of 3e-4 at 95 % (rule of three), enough for any
 #: per-read requirement of a sequencing chip; more is a different experiment.
 MAX_REPLICATES = 10_000
+#: Characters of a point's label in its scenario's source (``file [key=value, …]``): stages ask
+#: whether the source is a file, and a name past 255 bytes raises; a longer label names the
+#: point by its id instead.
+MAX_LABEL = 200
 SCALES = ("lin", "log", "int")
 SEARCHES = ("grid", "bisect")
 KINDS = ("budget", "sensitivity")
@@ -386,6 +390,8 @@ def point_scenario(study: Study, params: dict[str, Any], seed: int,
     if fixed_pattern_seed is not None:
         raw.setdefault("chip", {})["fixed_pattern_seed"] = fixed_pattern_seed
     label = ", ".join(f"{k}={v}" for k, v in params.items())
+    if len(Path(study.scenario_path).name) + len(label) > MAX_LABEL:
+        label = f"point {point_id(params)}"  # the source is tried as a path: keep it a name
     return scenario_from_dict(raw, f"{study.scenario_path} [{label}]")
 
 
