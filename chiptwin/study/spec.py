@@ -206,8 +206,9 @@ AXIS_KEYS: dict[str, str] = {
 }
 #: Every key of a ``[[study.assumption]]`` table (see :data:`STUDY_KEYS`).
 ASSUMPTION_KEYS: dict[str, str] = {
-    "key": "required; a numeric scenario key the study does not otherwise vary (not on an axis, "
-           "not in reference), e.g. \"chip.pixel.read_noise_e\"",
+    "key": "required; a numeric scenario key not on an axis, e.g. \"chip.pixel.read_noise_e\" "
+           "(in study.reference too: the ideal point keeps the reference's value in every "
+           "condition)",
     "range": "required; [lo, hi], lo < hi, both inside the key's own range in the scenario "
              "schema, with the base scenario's value inside [lo, hi] (the tornado's bars run "
              "through it)",
@@ -270,7 +271,7 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
         _check_key(err, "study.reference", k, base_raw)
     requirements, confidence = _requirements(err, st, metrics, reference)
     kind = err.choice(st, "kind", KINDS, "budget")
-    assumptions = _assumptions(err, st, kind, axes, reference, base_raw, str(scen_path))
+    assumptions = _assumptions(err, st, kind, axes, base_raw, str(scen_path))
     study = Study(
         name=name, source=source, text=text if text is not None else json.dumps(raw),
         scenario_path=str(scen_path), base_raw=base_raw, seed=seed, replicates=replicates,
@@ -609,10 +610,12 @@ def _requirements(err: _Errors, st: dict, metrics: tuple[str, ...], reference: d
 # ---------------------------------------------------------------- assumptions (kind sensitivity)
 
 
-def _assumptions(err: _Errors, st: dict, kind: str, axes: tuple[Axis, ...], reference: dict,
-                 base_raw: dict, scenario_path: str) -> tuple[Assumption, ...]:
+def _assumptions(err: _Errors, st: dict, kind: str, axes: tuple[Axis, ...], base_raw: dict,
+                 scenario_path: str) -> tuple[Assumption, ...]:
     """The ``[[study.assumption]]`` tables, each checked against its key's own rule and the base
-    scenario's value (:class:`~chiptwin.study.sensitivity.Assumption`)."""
+    scenario's value (:class:`~chiptwin.study.sensitivity.Assumption`). A key also in
+    ``study.reference`` keeps that value in every condition's ideal point: the ideal does not
+    move with the assumption (an ideal converter has no INL whatever the chip's is)."""
     tables = _list(err, st, "assumption")
     if kind != "sensitivity":
         if tables:
@@ -626,9 +629,6 @@ def _assumptions(err: _Errors, st: dict, kind: str, axes: tuple[Axis, ...], refe
     out: list[Assumption] = []
     for i, t in enumerate(tables):
         taken = {a.key: "is on a [[study.axis]]: the study varies it already" for a in axes}
-        taken.update({k: "is set by study.reference (the ideal every loss is measured "
-                         "against): an assumption there would leave the ideal behind"
-                      for k in reference})
         taken.update({a.key: "is listed twice" for a in out})
         out.append(_assumption(err, f"study.assumption[{i}]", t, base_raw, base, taken))
     return tuple(out)
