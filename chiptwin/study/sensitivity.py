@@ -142,10 +142,10 @@ def end_answer(answer: dict[str, Any], axis: str, values: list, confidence: floa
                 "text": f"none met (> {values[-1]:g})", "bounds": {}}
     v = point[axis]
     bounds = answer.get("bounds", {})
-    shown = "; ".join(f"{q.split()[0]} {_seen(b)} {q.split()[1]} bound {b['bound']:.3g}"
+    shown = "; ".join(f"{q.split()[0]} {_seen(b)}, {confidence:.0%} bound {b['bound']:.3g}"
                       for q, b in bounds.items())
     return {"value": v, "index": values.index(v), "off_scale": False, "text": f"{v:g}",
-            "bounds": bounds, "statement": f"{v:g} ({shown} at {confidence:.0%})"}
+            "bounds": bounds, "statement": f"{v:g} ({shown})"}
 
 
 def _seen(b: dict) -> str:
@@ -157,14 +157,15 @@ def _swing(a: Assumption, low: dict, reference: dict, high: dict, values: list
     """How far one assumption moves the answer (None: off-scale, an end none met)."""
     ends = [low, reference, high]
     idx = [e["index"] for e in ends]
-    off = any(e["off_scale"] for e in ends)
     met = [e["value"] for e in ends if not e["off_scale"]]
+    off = 0 < len(met) < 3  # some ends none met, not all: moved past the top of the axis
     integer = is_integer_axis(values)
-    if off:
+    if not met:
+        swing, text = (0 if integer else 1.0), "none met at any end"
+    elif off:  # at least one step past the top: a lower bound
         swing = None
-        base = (f"{max(met) - min(met):g}" if integer else f"×{max(met) / min(met):.3g}") \
-            if met else "0"
-        text = f"> {base}" + (" (an end none met: off-scale)")
+        text = (f"≥ {values[-1] + 1 - min(met):g}" if integer else
+                f"> ×{values[-1] / min(met):.3g}") + " (an end none met: off-scale)"
     elif integer:
         swing = max(met) - min(met)
         text = f"{swing:g}"

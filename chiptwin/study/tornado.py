@@ -14,6 +14,7 @@ import textwrap
 from pathlib import Path
 from typing import Any
 
+from chiptwin.study.sensitivity import is_integer_axis
 from chiptwin.twin.figures import save_figure
 
 #: Colours of the two ends of a bar.
@@ -40,7 +41,7 @@ def tornado_figure(summary: dict[str, Any]):
 
     sens = summary["sensitivity"]
     axis = next(a for a in summary["axes"] if not a["given"])
-    values = [float(v) for v in axis["values"]]
+    values = list(axis["values"])
     sections = sens["results"]
     height = max(2.0, 0.55 * len(sens["assumptions"]) + 1.4)
     fig, axes = plt.subplots(len(sections), 1, figsize=(8.0, height * len(sections)),
@@ -50,9 +51,11 @@ def tornado_figure(summary: dict[str, Any]):
     return fig
 
 
-def _panel(ax, sec: dict[str, Any], values: list[float], axis_key: str) -> None:
+def _panel(ax, sec: dict[str, Any], values: list, axis_key: str) -> None:
+    from matplotlib.patches import Patch
+
     ranking = sec["ranking"]
-    log = min(values) > 0 and max(values) / min(values) >= 100
+    log = not is_integer_axis(values) and min(values) > 0  # its swing is a ratio
     off = values[-1] * (values[-1] / values[-2]) if log and len(values) > 1 else \
         values[-1] + (values[-1] - values[-2] if len(values) > 1 else 1.0)
 
@@ -84,7 +87,10 @@ def _panel(ax, sec: dict[str, Any], values: list[float], axis_key: str) -> None:
     given = ", ".join(f"{k} = {v}" for k, v in sec["given"].items())
     ax.set_xlabel(axis_key + (f"   [{given}]" if given else ""))
     ax.set_title("\n".join(textwrap.wrap(sec["verdict"], 95)), fontsize=8)
-    ax.legend(fontsize=7, loc="lower right")
+    handles = [Patch(color=LOW_COLOUR, alpha=0.75, label="answer at the low end"),
+               Patch(color=HIGH_COLOUR, alpha=0.75, label="answer at the high end"),
+               *ax.get_legend_handles_labels()[0]]
+    ax.legend(handles=handles, fontsize=7, loc="lower right")
 
 
 def sensitivity_markdown(summary: dict[str, Any]) -> list[str]:

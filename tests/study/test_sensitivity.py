@@ -151,6 +151,11 @@ def test_verdict_integer_axis_robust_only_when_identical():
     top, second = off["results"][0]["ranking"]
     assert top["key"] == "a" and top["off_scale"] and top["swing"] is None
     assert top["high"]["text"] == "none met (> 16)" and second["swing"] == 2
+    assert top["swing_text"].startswith("≥ 3")  # 17 bits at least, against 14
+    assert off["verdict"].startswith("decided by a: 14 at 0, none met (> 16) at 2")
+    # none met in every condition: nothing moves
+    nothing = analyse(_summary([12, 13, 14, 15, 16], dict.fromkeys(same, None)), ASSUMED)
+    assert nothing["verdict"].startswith("robust") and "none met" in nothing["verdict"]
 
 
 def test_verdict_continuous_axis_tolerates_one_step():
