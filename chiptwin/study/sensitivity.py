@@ -20,6 +20,7 @@ assumption with the largest swing.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -74,12 +75,19 @@ def analyse(summary: dict[str, Any], assumptions: tuple[Assumption, ...]) -> dic
     reference and its high end, ranked by swing, and the verdict."""
     budget = next(a for a in summary["axes"] if not a["given"])
     values, keys = list(budget["values"]), {a.key for a in assumptions}
+    # conditions where a pass is followed by a failure along the budget axis: their answer is
+    # above that failure (the study's answer rule), said beside it
+    broken = {json.dumps({k: v for k, v in x["passes"].items() if k != budget["key"]},
+                         sort_keys=True)
+              for x in summary.get("monotonicity", {}).get("violations", [])
+              if x["kind"] == "decision"}
     results: dict[str, dict[str, Any]] = {}
     for answer in summary["answer"]:
         own = {k: v for k, v in answer["given"].items() if k not in keys}
         at = {k: v for k, v in answer["given"].items() if k in keys}
+        monotone = json.dumps(answer["given"], sort_keys=True) not in broken
         results.setdefault(repr(own), {"given": own, "by_condition": []})["by_condition"].append(
-            (at, answer))
+            (at, {**answer, "monotone": monotone}))
     sections = [_section(r["given"], r["by_condition"], assumptions, budget["key"], values,
                          summary["confidence"]) for r in results.values()]
     integer = is_integer_axis(values)
@@ -126,8 +134,12 @@ def _section(given: dict, by_condition: list, assumptions: tuple[Assumption, ...
                    + ("the reference answer" if tol == 0 else "one step of the axis")
                    + f" (reference answer {reference['text']})")
     else:
+        tied = [r["key"] for r in ranking[1:]
+                if (r["off_scale"], r["steps"], r["swing"]) ==
+                (top["off_scale"], top["steps"], top["swing"])]
         verdict = (f"decided by {top['key']}: {top['low']['text']} at {top['range'][0]:g}, "
-                   f"{top['high']['text']} at {top['range'][1]:g} (swing {top['swing_text']})")
+                   f"{top['high']['text']} at {top['range'][1]:g} (swing {top['swing_text']})"
+                   + (f"; tied with {', '.join(tied)}" if tied else ""))
     return {"given": given, "reference": reference, "ranking": ranking, "verdict": verdict}
 
 
@@ -137,15 +149,17 @@ def end_answer(answer: dict[str, Any], axis: str, values: list, confidence: floa
     (``len(values)``: off the top), and a text with every requirement's bound, as the study
     states it."""
     point = answer.get("point")
+    monotone = answer.get("monotone", True)
+    note = "" if monotone else " (non-monotone: a failure below it)"
     if point is None:
-        return {"value": None, "index": len(values), "off_scale": True,
-                "text": f"none met (> {values[-1]:g})", "bounds": {}}
+        return {"value": None, "index": len(values), "off_scale": True, "monotone": monotone,
+                "text": f"none met (> {values[-1]:g})" + note, "bounds": {}}
     v = point[axis]
     bounds = answer.get("bounds", {})
     shown = "; ".join(f"{q.split()[0]} {_seen(b)}, {confidence:.0%} bound {b['bound']:.3g}"
                       for q, b in bounds.items())
-    return {"value": v, "index": values.index(v), "off_scale": False, "text": f"{v:g}",
-            "bounds": bounds, "statement": f"{v:g} ({shown})"}
+    return {"value": v, "index": values.index(v), "off_scale": False, "monotone": monotone,
+            "text": f"{v:g}{note}", "bounds": bounds, "statement": f"{v:g} ({shown}){note}"}
 
 
 def _seen(b: dict) -> str:

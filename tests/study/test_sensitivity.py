@@ -158,6 +158,20 @@ def test_verdict_integer_axis_robust_only_when_identical():
     assert nothing["verdict"].startswith("robust") and "none met" in nothing["verdict"]
 
 
+def test_verdict_names_ties_and_non_monotone_answers():
+    answers = {"ref": 14, ("a", 0.0): 15, ("a", 2.0): 13, ("b", 0.5): 14, ("b", 3.0): 16}
+    summary = _summary([12, 13, 14, 15, 16], answers)
+    # condition b = 3 passed at 14, failed at 15: its answer 16 stands above the failure
+    summary["monotonicity"] = {"violations": [{"kind": "decision", "axis": "x",
+                                               "passes": {"x": 14, "a": 1.0, "b": 3.0},
+                                               "fails": {"x": 15, "a": 1.0, "b": 3.0}}]}
+    sens = analyse(summary, ASSUMED)
+    assert sens["verdict"].startswith("decided by a: 15 at 0, 13 at 2 (swing 2); tied with b")
+    b = sens["results"][0]["ranking"][1]
+    assert not b["high"]["monotone"] and "non-monotone" in b["high"]["text"]
+    assert b["low"]["monotone"] and b["low"]["text"] == "14"
+
+
 def test_verdict_continuous_axis_tolerates_one_step():
     values = [0.01, 0.02, 0.05, 0.1, 0.2]
     one_step = {"ref": 0.05, ("a", 0.0): 0.1, ("a", 2.0): 0.05, ("b", 0.5): 0.05,
