@@ -155,11 +155,12 @@ def end_answer(answer: dict[str, Any], axis: str, values: list, confidence: floa
         return {"value": None, "index": len(values), "off_scale": True, "monotone": monotone,
                 "text": f"none met (> {values[-1]:g})" + note, "bounds": {}}
     v = point[axis]
+    shown_v = f"{v:g}" if isinstance(v, int) else f"{v:.3g}"
     bounds = answer.get("bounds", {})
     shown = "; ".join(f"{q.split()[0]} {_seen(b)}, {confidence:.0%} bound {b['bound']:.3g}"
                       for q, b in bounds.items())
     return {"value": v, "index": values.index(v), "off_scale": False, "monotone": monotone,
-            "text": f"{v:g}{note}", "bounds": bounds, "statement": f"{v:g} ({shown}){note}"}
+            "text": shown_v + note, "bounds": bounds, "statement": f"{shown_v} ({shown}){note}"}
 
 
 def _seen(b: dict) -> str:

@@ -81,7 +81,7 @@ def _panel(ax, sec: dict[str, Any], values: list, axis_key: str) -> None:
         ax.set_xscale("log")
     lo = min([ref, *(x(e) for r in ranking for e in (r["low"], r["high"]))])
     hi = max([ref, *(x(e) for r in ranking for e in (r["low"], r["high"]))])
-    pad = (hi / lo) ** 0.08 if log and lo > 0 else 0.08 * (hi - lo or 1.0)
+    pad = (hi / lo) ** 0.15 if log and lo > 0 else 0.12 * (hi - lo or 1.0)
     ax.set_xlim(*((lo / pad, hi * pad) if log and lo > 0 else (lo - pad, hi + pad)))
     ax.set_ylim(-0.7, n - 0.3)
     given = ", ".join(f"{k} = {v}" for k, v in sec["given"].items())
