@@ -32,6 +32,14 @@ Layout (``scenarios/studies/*.toml`` are worked examples)::
     [study.requirement]
     base_error_rate = "<= 1e-3"
     confidence = 0.95
+
+A study of ``kind = "sensitivity"`` (one budget axis, a requirement) adds assumptions, each
+expanded one at a time around the base scenario's own value (:mod:`chiptwin.study.sensitivity`)::
+
+    [[study.assumption]]
+    key = "chip.pixel.read_noise_e"
+    range = [30.0, 300.0]
+    why = "not published; 30 e⁻ (a quiet readout) … 300 e⁻ (a simple source follower)"
 """
 
 from __future__ import annotations
