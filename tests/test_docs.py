@@ -124,9 +124,12 @@ def test_generated_scenario_reference_lists_every_key():
 
 def test_generated_study_reference_lists_every_key():
     from chiptwin.study.metrics import CATALOGUE
-    from chiptwin.study.spec import AXIS_KEYS, STUDY_KEYS
+    from chiptwin.study.spec import ASSUMPTION_KEYS, AXIS_KEYS, STUDY_KEYS
 
     text = REF.study_markdown()
+    assumption = text.split("## `[[study.assumption]]`", 1)[1].split("\n## ", 1)[0]
+    for key in ASSUMPTION_KEYS:
+        assert f"\n`{key}`\n: " in assumption, key
     for key in [*STUDY_KEYS, *AXIS_KEYS, *CATALOGUE]:
         assert f"\n`{key}`\n: " in text, key
 

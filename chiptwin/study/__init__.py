@@ -10,7 +10,9 @@ memory, DNA amount) that meets the requirement, at what confidence" (SPEC: Studi
 - :mod:`.rows`: one row (point × replicate), seeded from the study seed and the point's hash;
 - :mod:`.execute`: serial, local process pool, Dask;
 - :mod:`.store`: the SQLite database that makes a study resumable;
-- :mod:`.engine`: ties them together; :mod:`.outputs`: results.csv, study.json, report.md.
+- :mod:`.engine`: ties them together; :mod:`.outputs`: results.csv, study.json, report.md;
+- :mod:`.sensitivity`: ``kind = "sensitivity"``, which assumption moves the answer (the
+  one-at-a-time design, the swing, the verdict); :mod:`.tornado`: its chart and report table.
 """
 
 from chiptwin.study.engine import StudyResult, run_study

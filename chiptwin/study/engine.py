@@ -31,7 +31,7 @@ from chiptwin.detection.stats import (
     mean_estimate,
     rate_estimate,
 )
-from chiptwin.study import search
+from chiptwin.study import search, sensitivity
 from chiptwin.study.execute import make_executor
 from chiptwin.study.metrics import CATALOGUE, row_metrics
 from chiptwin.study.rows import RowTask, chip_seed, row_seed
@@ -287,7 +287,7 @@ def summarise(plan: Plan, table: list[dict], searched: dict[str, dict]) -> dict[
         violations += _monotonicity(study, group, status_of)
         answers.append(_answer(study, group, status_of))
     counts = {s: sum(r["status"] == s for r in table) for s in ("ok", "invalid", "error")}
-    return {
+    summary = {
         "study": study.name, "description": study.description, "source": study.source,
         "scenario": study.scenario_path, "seed": study.seed, "search": study.search,
         "replicates": study.replicates, "vary_chip": study.vary_chip,
@@ -311,6 +311,10 @@ def summarise(plan: Plan, table: list[dict], searched: dict[str, dict]) -> dict[
         "runs": {"total": len(table), **counts},
         "chiptwin_version": __version__,
     }
+    if study.kind == "sensitivity":  # a budget study's study.json stays as it was
+        summary["kind"] = study.kind
+        summary["sensitivity"] = sensitivity.analyse(summary, study.assumptions)
+    return summary
 
 
 def _design_effects(points: list[dict]) -> str | None:

@@ -18,6 +18,7 @@ import numpy as np
 
 from chiptwin.study.engine import StudyResult
 from chiptwin.study.metrics import CATALOGUE
+from chiptwin.study.tornado import sensitivity_markdown, tornado_plot
 from chiptwin.twin.figures import save_figure as _save
 
 
@@ -32,6 +33,8 @@ def write_study_outputs(result: StudyResult, out: Path) -> None:
     """Every output of a finished study into ``out`` (which holds its results.sqlite)."""
     write_atomic(out / "results.csv", results_csv(result))
     plots = make_plots(result.summary, out)
+    if "sensitivity" in result.summary:
+        plots.insert(0, tornado_plot(result.summary, out))
     write_atomic(out / "report.md", report_markdown(result.summary, plots))
     write_atomic(out / "study.json", json.dumps(result.summary, indent=1, default=str) + "\n")
 
@@ -61,9 +64,14 @@ def results_csv(result: StudyResult) -> str:
 def answer_lines(summary: dict[str, Any]) -> list[str]:
     """The answer, one line per combination of the given axes (what the CLI prints)."""
     lines = []
+    at_reference = _reference_values(summary)
     for a in summary["answer"]:
-        given = ", ".join(f"{k} = {v}" for k, v in a["given"].items())
+        shown = {k: v for k, v in a["given"].items() if at_reference.get(k, v) != v}
+        given = ", ".join(f"{k} = {v}" for k, v in shown.items()) or (
+            "reference" if at_reference else "")
         lines.append((f"[{given}] " if given else "") + a["statement"])
+    if "sensitivity" in summary:
+        lines.append("SENSITIVITY: " + summary["sensitivity"]["verdict"])
     v = summary["monotonicity"]["violations"]
     decisions = [x for x in v if x["kind"] == "decision"]
     if decisions:
@@ -74,6 +82,13 @@ def answer_lines(summary: dict[str, Any]) -> list[str]:
         lines.append(f"monotonicity: {len(v) - len(decisions)} metric(s) significantly worse at "
                      "a costlier point (disjoint intervals; study.json monotonicity.violations)")
     return lines
+
+
+def _reference_values(summary: dict[str, Any]) -> dict[str, Any]:
+    """A sensitivity study's assumptions at their reference values (labels name only the
+    assumption moved from it); ``{}`` for a budget study."""
+    return {a["key"]: a["reference"] for a in summary.get("sensitivity", {}).get(
+        "assumptions", [])}
 
 
 def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
@@ -100,7 +115,7 @@ def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
     for axis in budget:
         for name in names:
             fig, ax = plt.subplots(figsize=(6.5, 3.4))
-            for given, group in _by_given(points, axis).items():
+            for given, group in _by_given(points, axis, _reference_values(summary)).items():
                 x = np.array([p["params"][axis] for p in group], dtype=float)
                 est = [p["metrics"].get(name) for p in group]
                 keep = [i for i, e in enumerate(est) if e is not None]
@@ -140,10 +155,13 @@ def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
     return plots
 
 
-def _by_given(points: list[dict], axis: str) -> dict[str, list[dict]]:
+def _by_given(points: list[dict], axis: str, at_reference: dict | None = None
+              ) -> dict[str, list[dict]]:
     groups: dict[str, list[dict]] = {}
+    ref = at_reference or {}
     for p in points:
-        label = ", ".join(f"{k}={v}" for k, v in p["params"].items() if k != axis)
+        label = ", ".join(f"{k}={v}" for k, v in p["params"].items()
+                          if k != axis and ref.get(k, v) != v) or ("reference" if ref else "")
         groups.setdefault(label, []).append(p)
     return {k: sorted(g, key=lambda p: p["params"][axis]) for k, g in groups.items()}
 
@@ -236,6 +254,8 @@ def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> st
     lines = [f"# Study {summary['study']}", "", summary.get("description", ""), "",
              "## Answer", ""]
     lines += [f"- {line}" for line in answer_lines(summary)]
+    if "sensitivity" in summary:
+        lines += [""] + sensitivity_markdown(summary)
     lines += ["", f"Requirement: {' and '.join(summary['requirement']) or '(none)'} at "
               f"{summary['confidence']:.0%} confidence (one-sided bounds). Search: "
               f"{summary['search']}. Replicates per point: {summary['replicates']} "

@@ -32,6 +32,14 @@ Layout (``scenarios/studies/*.toml`` are worked examples)::
     [study.requirement]
     base_error_rate = "<= 1e-3"
     confidence = 0.95
+
+A study of ``kind = "sensitivity"`` (one budget axis, a requirement) adds assumptions, each
+expanded one at a time around the base scenario's own value (:mod:`chiptwin.study.sensitivity`)::
+
+    [[study.assumption]]
+    key = "chip.pixel.read_noise_e"
+    range = [30.0, 300.0]
+    why = "not published; 30 e⁻ (a quiet readout) … 300 e⁻ (a simple source follower)"
 """
 
 from __future__ import annotations
@@ -49,9 +57,11 @@ from pathlib import Path
 from typing import Any
 
 from chiptwin.config import Scenario, ScenarioError
+from chiptwin.config.fields import allowed_text, check_value
 from chiptwin.config.load import apply_override, read_toml, scenario_from_dict, type_hints
 from chiptwin.config.schema import ASSAY_COMMON_KEYS, ASSAY_KIND_KEYS
 from chiptwin.study.metrics import CATALOGUE, check_metric_applies
+from chiptwin.study.sensitivity import Assumption, conditions
 
 #: Rows a study may hold: 10⁶ runs of the 0.1 s reference scene is ≈ 14 h on 2 cores, beyond
 #: any interactive use; more is refused before anything runs.
@@ -61,8 +71,13 @@ MAX_AXIS_VALUES = 1000
 #: Replicates per point: 10⁴ resolves a rate of 3e-4 at 95 % (rule of three), enough for any
 #: per-read requirement of a sequencing chip; more is a different experiment.
 MAX_REPLICATES = 10_000
+#: Characters of a point's label in its scenario's source (``file [key=value, …]``): stages ask
+#: whether the source is a file, and a name past 255 bytes raises; a longer label names the
+#: point by its id instead.
+MAX_LABEL = 200
 SCALES = ("lin", "log", "int")
 SEARCHES = ("grid", "bisect")
+KINDS = ("budget", "sensitivity")
 _REQ = re.compile(r"^\s*(<=|>=)\s*([-+0-9.eE]+|inf)\s*$")
 
 
@@ -123,6 +138,8 @@ class Study:
     verify: int = 1
     description: str = ""
     datasheet_text: str = ""  # the base scenario's from_datasheet file, part of the identity
+    kind: str = "budget"
+    assumptions: tuple[Assumption, ...] = ()  # kind "sensitivity": their axes end ``axes``
 
     @property
     def budget_axes(self) -> tuple[Axis, ...]:
@@ -171,7 +188,12 @@ STUDY_KEYS: dict[str, str] = {
     "batch": f"integer in [1, {MAX_REPLICATES}], default 10; replicates added per look (bisect)",
     "verify": "integer in [0, 10], default 1; points above a bisect answer re-checked for "
               "monotonicity",
+    "kind": "\"budget\" (default: the cheapest budget per condition) or \"sensitivity\" (the "
+            "same answer, and how far each [[study.assumption]] moves it: one budget axis, a "
+            "requirement, at least one assumption)",
     "axis": "[[study.axis]] tables, at least one; cheapest and most significant first",
+    "assumption": "[[study.assumption]] tables (kind = \"sensitivity\" only): a scenario value "
+                  "not known, its plausible range and why",
     "metric": "[[study.metric]] tables with one key, name (a metric of the catalogue), at least "
               "one",
     "requirement": "table metric = \"<= x\" or \">= x\", plus confidence in [0.5, 0.9999] "
@@ -190,8 +212,19 @@ AXIS_KEYS: dict[str, str] = {
              "a budget",
     "zip": "true or false, default false; zipped axes advance together (same number of values)",
 }
+#: Every key of a ``[[study.assumption]]`` table (see :data:`STUDY_KEYS`).
+ASSUMPTION_KEYS: dict[str, str] = {
+    "key": "required; a numeric scenario key not on an axis, e.g. \"chip.pixel.read_noise_e\" "
+           "(in study.reference too: the ideal point keeps the reference's value in every "
+           "condition)",
+    "range": "required; [lo, hi], lo < hi, both inside the key's own range in the scenario "
+             "schema, with the base scenario's value inside [lo, hi] (the tornado's bars run "
+             "through it)",
+    "why": "required; text: why the value is not known and where the two ends come from",
+}
 _STUDY_KEYS = set(STUDY_KEYS)
 _AXIS_KEYS = set(AXIS_KEYS)
+_ASSUMPTION_KEYS = set(ASSUMPTION_KEYS)
 
 
 def load_study(path: str | Path, resolve_scenario=None) -> Study:
@@ -245,6 +278,8 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
     for k in reference:
         _check_key(err, "study.reference", k, base_raw)
     requirements, confidence = _requirements(err, st, metrics, reference)
+    kind = err.choice(st, "kind", KINDS, "budget")
+    assumptions = _assumptions(err, st, kind, axes, base_raw, str(scen_path))
     study = Study(
         name=name, source=source, text=text if text is not None else json.dumps(raw),
         scenario_path=str(scen_path), base_raw=base_raw, seed=seed, replicates=replicates,
@@ -256,7 +291,10 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
         verify=err.integer(st, "verify", 0, 10, "points above a bisect answer re-checked",
                            default=1),
         description=err.text(st, "description"), datasheet_text=datasheet_text,
+        kind=kind, assumptions=assumptions,
     )
+    if kind == "sensitivity":
+        study = _with_design(err, study)
     _check_whole(err, study)
     return study
 
@@ -361,6 +399,8 @@ def point_scenario(study: Study, params: dict[str, Any], seed: int,
     if fixed_pattern_seed is not None:
         raw.setdefault("chip", {})["fixed_pattern_seed"] = fixed_pattern_seed
     label = ", ".join(f"{k}={v}" for k, v in params.items())
+    if len(Path(study.scenario_path).name) + len(label) > MAX_LABEL:
+        label = f"point {point_id(params)}"  # the source is tried as a path: keep it a name
     return scenario_from_dict(raw, f"{study.scenario_path} [{label}]")
 
 
@@ -457,18 +497,20 @@ def _scenario_path(err: _Errors, st: dict, folder: Path, resolve) -> Path:
              "and no bundled scenario of that name; `chiptwin list` shows them")
 
 
-def _check_key(err: _Errors, where: str, key: str, base_raw: dict) -> None:
+def _check_key(err: _Errors, where: str, key: str, base_raw: dict) -> dataclasses.Field:
     """``key`` must name a scenario field (``chip.adc.bits``), and an assay key of the base
-    scenario's kind."""
+    scenario's kind; returns the field (its metadata is the key's rule)."""
     cls: Any = Scenario
     parts = key.split(".")
     for i, part in enumerate(parts):
         hints = type_hints(cls) if dataclasses.is_dataclass(cls) else {}
-        names = {f.name for f in dataclasses.fields(cls)} - {"source"} if hints else set()
-        if part not in names:
+        fields = {f.name: f for f in dataclasses.fields(cls) if f.name != "source"} \
+            if hints else {}
+        if part not in fields:
             prefix = ".".join(parts[:i]) or "(top)"
-            err.fail(where, key, f"{part!r} is not a key of {prefix}; " + _unknown(part, names))
-        cls = hints[part]
+            err.fail(where, key, f"{part!r} is not a key of {prefix}; " +
+                     _unknown(part, set(fields)))
+        cls, found = hints[part], fields[part]
     if dataclasses.is_dataclass(cls):
         err.fail(where, key, "names a section; name one of its keys")
     if parts[0] == "assay" and len(parts) == 2:
@@ -477,6 +519,7 @@ def _check_key(err: _Errors, where: str, key: str, base_raw: dict) -> None:
         if parts[1] not in allowed:
             err.fail(where, key, f"not used by the scenario's assay kind {kind!r}; its keys: "
                      + ", ".join(sorted(allowed)))
+    return found
 
 
 def _axis(err: _Errors, i: int, a: dict, base_raw: dict) -> Axis:
@@ -570,3 +613,104 @@ def _requirements(err: _Errors, st: dict, metrics: tuple[str, ...], reference: d
         err.fail("study.metric", "snr_loss_db", "is measured against the ideal: set "
                  'study.reference, e.g. { "chip.adc.bits" = 20 }')
     return tuple(out), confidence
+
+
+# ---------------------------------------------------------------- assumptions (kind sensitivity)
+
+
+def _assumptions(err: _Errors, st: dict, kind: str, axes: tuple[Axis, ...], base_raw: dict,
+                 scenario_path: str) -> tuple[Assumption, ...]:
+    """The ``[[study.assumption]]`` tables, each checked against its key's own rule and the base
+    scenario's value (:class:`~chiptwin.study.sensitivity.Assumption`). A key also in
+    ``study.reference`` keeps that value in every condition's ideal point: the ideal does not
+    move with the assumption (an ideal converter has no INL whatever the chip's is)."""
+    tables = _list(err, st, "assumption")
+    if kind != "sensitivity":
+        if tables:
+            err.fail("study.assumption", [t.get("key") for t in tables],
+                     'only a study of kind = "sensitivity" takes assumptions')
+        return ()
+    if not tables:
+        err.fail("study.assumption", dataclasses.MISSING,
+                 "a sensitivity study needs at least one [[study.assumption]]")
+    base = scenario_from_dict(json.loads(json.dumps(base_raw)), scenario_path)
+    out: list[Assumption] = []
+    for i, t in enumerate(tables):
+        taken = {a.key: "is on a [[study.axis]]: the study varies it already" for a in axes}
+        taken.update({a.key: "is listed twice" for a in out})
+        out.append(_assumption(err, f"study.assumption[{i}]", t, base_raw, base, taken))
+    return tuple(out)
+
+
+def _assumption(err: _Errors, where: str, t: dict, base_raw: dict, base: Scenario,
+                taken: dict[str, str]) -> Assumption:
+    for k in t:
+        if k not in _ASSUMPTION_KEYS:
+            err.fail(f"{where}.{k}", t[k], _unknown(k, _ASSUMPTION_KEYS))
+    key = t.get("key", dataclasses.MISSING)
+    if not isinstance(key, str):
+        err.fail(f"{where}.key", key, 'must be a scenario key, e.g. "chip.pixel.read_noise_e"')
+    rule = _check_key(err, f"{where}.key", key, base_raw)
+    if rule.metadata.get("choices") or rule.metadata.get("kind") not in (float, int):
+        err.fail(f"{where}.key", key, f"is not a number ({allowed_text(rule)}); an assumption "
+                 "spans a numeric range")
+    if key in taken:
+        err.fail(f"{where}.key", key, taken[key])
+    r = t.get("range", dataclasses.MISSING)
+    if not (isinstance(r, list) and len(r) == 2 and all(
+            isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+            for x in r)):
+        err.fail(f"{where}.range", r, f"{key}: must be [lo, hi], two finite numbers")
+    if r[0] >= r[1]:
+        err.fail(f"{where}.range", r, f"{key}: lo must be below hi (the low end first)")
+    lo, hi = (_in_rule(err, f"{where}.range", r, rule, key, x) for x in r)
+    ref = base
+    for part in key.split("."):
+        ref = getattr(ref, part)
+    if not lo <= ref <= hi:
+        err.fail(f"{where}.range", r, f"{key}: the base scenario's value {ref!r} is outside "
+                 "[lo, hi]; the tornado needs the reference inside (widen the range to hold it)")
+    why = t.get("why", dataclasses.MISSING)
+    if not isinstance(why, str) or not why.strip():
+        err.fail(f"{where}.why", why, f"{key}: say why the value is not known and where the "
+                 "two ends come from (text)")
+    return Assumption(key, lo, hi, ref, why.strip())
+
+
+def _in_rule(err: _Errors, where: str, r: list, rule: dataclasses.Field, key: str, x):
+    """One end of a range checked by the key's own rule (the scenario schema's)."""
+    try:
+        return check_value(rule, x, where, key)
+    except ScenarioError:
+        err.fail(where, r, f"{key} = {x!r} is outside the key's own range: {allowed_text(rule)}")
+
+
+def _with_design(err: _Errors, study: Study) -> Study:
+    """A sensitivity study's conditions as given axes zipped together, after the study's own
+    axes (:func:`~chiptwin.study.sensitivity.conditions`); every condition checked."""
+    budget = study.budget_axes
+    if len(budget) != 1:
+        err.fail("study.kind", "sensitivity", "answers one budget: exactly one budget axis (mark "
+                 "the others given = true); have " + str([a.key for a in budget]))
+    if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in budget[0].values):
+        err.fail("study.kind", "sensitivity", f"measures how far the answer moves: the budget "
+                 f"axis {budget[0].key} needs numeric values")
+    zipped = [a.key for a in study.axes if a.zip]
+    if zipped:
+        err.fail("study.axis", zipped, "a sensitivity study zips its assumptions' conditions "
+                 "together; no axis of its own may be zipped")
+    if not study.requirements:
+        err.fail("study.requirement", dataclasses.MISSING, "a sensitivity study needs a "
+                 "requirement: the answer it moves is the cheapest budget that meets it")
+    conds = conditions(study.assumptions)
+    extra = tuple(Axis(a.key, tuple(c[a.key] for c in conds), given=True, zip=True)
+                  for a in study.assumptions)
+    study = dataclasses.replace(study, axes=study.axes + extra)
+    for c in conds[1:]:  # an end that makes the base scenario inconsistent: refused now
+        i, a = next((i, a) for i, a in enumerate(study.assumptions) if c[a.key] != a.reference)
+        try:
+            point_scenario(study, c, study.seed, None)
+        except ScenarioError as exc:
+            err.fail(f"study.assumption[{i}].range", [a.lo, a.hi],
+                     f"{a.key} = {c[a.key]!r} gives an inconsistent scenario: {exc}")
+    return study

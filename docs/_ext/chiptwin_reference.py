@@ -259,7 +259,7 @@ def _bundled_text(name: str, study: bool = False) -> str:
 def study_markdown() -> str:
     """The study file format and the metric catalogue."""
     from chiptwin.study.metrics import CATALOGUE
-    from chiptwin.study.spec import AXIS_KEYS, STUDY_KEYS
+    from chiptwin.study.spec import ASSUMPTION_KEYS, AXIS_KEYS, STUDY_KEYS
 
     out = [HEADER.format(src="chiptwin/study/spec.py and chiptwin/study/metrics.py"),
            "(study-reference)=\n", "# Study file\n",
@@ -277,6 +277,9 @@ def study_markdown() -> str:
         out += [f"`{k}`", f": {_text(v)}", ""]
     out += ["## `[[study.axis]]`\n"]
     for k, v in AXIS_KEYS.items():
+        out += [f"`{k}`", f": {_text(v)}", ""]
+    out += ["## `[[study.assumption]]` (kind = \"sensitivity\")\n"]
+    for k, v in ASSUMPTION_KEYS.items():
         out += [f"`{k}`", f": {_text(v)}", ""]
     out += ["## Metrics\n",
             "`[[study.metric]] name = ...` takes one of these. Rates are pooled over "
