@@ -260,3 +260,24 @@ def test_one_and_two_workers_give_identical_tables(tmp_path):
     serial, pool = run_study(path, workers=1), run_study(path, workers=2)
     assert comparable(serial.table) == comparable(pool.table)
     assert serial.summary["sensitivity"] == pool.summary["sensitivity"]
+
+
+def test_bundled_sensitivity_ranges_are_the_reference_chips():
+    """The bundled sensitivity studies move each unpublished chip parameter across the plausible
+    range the reference chip as built states for it (chiptwin.config.reference_chip), and the
+    scene they study states the set's values: one source for both."""
+    from chiptwin.config import load_scenario, reference_chip
+    from chiptwin.config.load import read_toml
+    from tests.conftest import SCENARIOS
+
+    ranges = reference_chip.by_key()
+    for name in ("sensitivity_bits", "sensitivity_lod"):
+        doc = read_toml(SCENARIOS / "studies" / f"{name}.toml")["study"]
+        chip = [a for a in doc["assumption"] if a["key"] in ranges]
+        assert len(chip) >= 6, name
+        for a in chip:
+            ref = ranges[a["key"]]
+            assert list(a["range"]) == [ref.lo, ref.hi], (name, a["key"])
+        s = load_scenario(SCENARIOS / "studies" / doc["scenario"]) if doc["scenario"].endswith(
+            ".toml") else load_scenario(doc["scenario"])
+        assert reference_chip.stated(s)["as_reference"], name
