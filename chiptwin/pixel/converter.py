@@ -716,6 +716,12 @@ def build_converter(
     )
 
 
+def check_bow(inl: float, shape: str, bits: int) -> None:
+    """Refuse a bow that reverses transitions (:func:`_bow`'s check, on the end points only)."""
+    if 2**bits > 2:
+        _bow(np.array([[0.5, 2.0**bits - 1.5]]), inl, shape)
+
+
 def _bow_terms(s: NDArray[np.float64], inl: float, shape: str, bits: int
                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The bow's offset ``inl·b(u)`` and slope ``d/ds`` at ideal-code places ``s`` (LSB),

@@ -32,7 +32,8 @@ MUTATIONS = all_mutations()
 
 def test_the_sweep_covers_every_bundled_study_and_key():
     files = {src.name for src, _, _ in MUTATIONS}
-    assert files == {"adc_bits_pyro.toml", "frame_memory.toml", "lod_pyro.toml"}
+    assert files == {"adc_bits_pyro.toml", "frame_memory.toml", "lod_pyro.toml",
+                     "read_length_pyro.toml"}
     keys = {p for _, p, _ in MUTATIONS}
     assert ("study", "metric", 0, "name") in keys and ("study", "axis", 0, "key") in keys
     assert ("study", "requirement", "confidence") in keys

@@ -12,7 +12,7 @@ import pytest
 from chiptwin.cli import main
 from chiptwin.config import ScenarioError, load_scenario
 from chiptwin.twin.stages import optics_top
-from tests.conftest import SMALL
+from tests.conftest import NO_TOP, SMALL
 
 ISOTROPIC = '[optics]\nemitter = "isotropic"\n'
 
@@ -98,7 +98,7 @@ def test_a_top_costs_the_raytrace_level_more_rays_time():
     """A traced ray under an open top takes ≈ 2.5× as long (measured 4.4 → 2.2 M rays/s on the
     pyro_1fmol stack): 8.8e8 rays pass the raytrace level's 1.2e9-ray cap without a top and are
     refused under one, naming the key that lowers them."""
-    sets = ['optics.emitter="isotropic"', 'run.fidelity.optics="raytrace"',
+    sets = [*NO_TOP, 'optics.emitter="isotropic"', 'run.fidelity.optics="raytrace"',
             'sites.at_pixels="all"', "chip.rows=16", "chip.cols=32",
             "optics.raytrace_rel_error=0.001", "chip.memory.capacity_bits=4194304"]
     assert load_scenario("pyro_1fmol", sets).optics.top.medium == "solution"

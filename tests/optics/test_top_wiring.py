@@ -21,8 +21,10 @@ from chiptwin.optics.raytrace import raytrace
 from chiptwin.optics.stack_psf import coupling_stack
 from chiptwin.optics.top import Top
 from chiptwin.twin import stages
+from tests.conftest import NO_TOP
 
-OPEN_50 = ['optics.top.medium="air"', "optics.top.solution_depth_um=50.0"]
+#: An open well 50 µm deep, over the scenes' own top (a flow cell's lid in the pyro scenes).
+OPEN_50 = [*NO_TOP, 'optics.top.medium="air"', "optics.top.solution_depth_um=50.0"]
 
 
 def test_raytrace_cache_key_holds_the_top(tmp_path):
@@ -48,7 +50,8 @@ def test_scene_hands_the_top_to_the_psf_level():
     is :func:`coupling_stack` with that top; the top adds light to every pixel."""
     s = load_scenario("pyro_1fmol", ['optics.emitter="isotropic"', *OPEN_50])
     c = stages.coupling(s)
-    no_top = stages.coupling(load_scenario("pyro_1fmol", ['optics.emitter="isotropic"']))
+    no_top = stages.coupling(load_scenario("pyro_1fmol", ['optics.emitter="isotropic"',
+                                                          *NO_TOP]))
     grid = stages._grid(s, np.arange(s.chip.rows), np.arange(s.chip.cols),
                         stages.site_pixels(s))
     direct = coupling_stack(**grid, stack=stages.optics_stack(s), emitter="isotropic",
