@@ -75,6 +75,8 @@ def check_scene(s) -> None:
         why.append(f"photons={s.run.fidelity.photons} (needs binned)")
     if s.chip.n_pixels > pixel.CHUNK_PIXELS:
         why.append(f"{s.chip.n_pixels} pixels (one stream: at most {pixel.CHUNK_PIXELS})")
+    if s.chip.adc.as_built_keys and s.run.fidelity.adc != "ideal":
+        why.append("a converter as built (needs run.fidelity.adc = \"ideal\")")
     if s.run.fidelity.shot != "poisson":
         why.append(f"shot={s.run.fidelity.shot} (needs poisson)")
     if why:
@@ -144,6 +146,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--scenario", type=Path, default=SCENARIO)
     args = p.parse_args(argv)
     repeat, sets = (2, QUICK) if args.quick else (max(args.repeat, 1), [])
+    sets = [*sets, 'run.fidelity.adc="ideal"']  # the public reader converts ideally
     rows = measure(args.scenario, repeat, sets)
     med = {name: statistics.median(w for w, _ in r) for name, r in rows.items()}
     print(f"{args.scenario.stem}{' (quick: ' + ' '.join(sets) + ')' if sets else ''}, warm, "

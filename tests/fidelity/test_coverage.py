@@ -34,8 +34,9 @@ def test_estimate_bounds_the_error_on_common_numbers(name, tmp_path):
     resolved (95 % half-width ≤ 0.1 % or within the estimate's reach) and the interval's far
     end is within auto's estimate."""
     sets = [f'run.fidelity.{st}="auto"' for st in SAME_DRAWS]
+    optics = reference_levels(load_scenario(SCENARIOS / f"{name}.toml"))["optics"]
     sets += ['run.fidelity.photons="binned"', 'run.fidelity.shot="poisson"',
-             'run.fidelity.optics="psf"',
+             f'run.fidelity.optics="{optics}"',  # its reference: psf would spend the budget
              "run.error_budget.snr_rel=0.01", "chip.fixed_pattern_seed=3"]
     s = load_scenario(SCENARIOS / f"{name}.toml", sets + CASES[name])
     resolved, choice = resolve(s, tmp_path / "fid.sqlite")

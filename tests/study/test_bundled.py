@@ -122,7 +122,9 @@ def test_lod_bisection_answer_at_reduced_replicates():
 
     result = run_study(bundled_study("lod_pyro", edit), workers=1)
     assert len(sites) == 20
-    assert result.answer[0]["point"]["assay.dna_fmol"] in (0.0316228, 0.0562341)
+    # the chip as built (isotropic light, the comparator's noise): the README's 0.1 fmol at
+    # 99 %; the paper's idealised chip landed on 0.0316 or 0.0562
+    assert result.answer[0]["point"]["assay.dna_fmol"] in (0.0562341, 0.1)
     visited = [p for p in result.summary["points"] if p["status"] != "not_visited"]
     assert len(visited) <= 7 and result.summary["monotonicity"]["violations"] == []
 
