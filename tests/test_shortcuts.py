@@ -119,7 +119,34 @@ def test_converters_as_built_are_carried_with_their_pixels(tmp_path):
     assert cut.carried_pixels > 0 and np.array_equal(full.pixels, cut.pixels)
     np.testing.assert_allclose(cut.mean_e, full.mean_e, rtol=1e-12, atol=1e-9)
     np.testing.assert_allclose(cut.var_e2, full.var_e2, rtol=1e-12)
-    np.testing.assert_allclose(cut.dark_var_e2, full.dark_var_e2, rtol=1e-12)
+    kept = full.pixels
+    np.testing.assert_allclose(cut.dark_var_e2[kept], full.dark_var_e2[kept], rtol=1e-12)
+    # the converters' exact moments are computed where the run reads them: the kept pixels
+    assert np.isfinite(full.dark_var_e2[kept]).all()
+    assert np.isnan(np.delete(full.dark_var_e2, kept)).all()
+
+
+def test_converter_moments_only_where_read_change_nothing_read(tmp_path):
+    """With converters as built, a run that keeps the sites' outputs computes the converters'
+    exact moments at those pixels only (:func:`chiptwin.twin.runner.moments_read_at`): the
+    sites' values are the every-pixel run's bit for bit, their moments to 1e-12."""
+    from tests.conftest import SMALL
+
+    path = tmp_path / "small.toml"
+    path.write_text(SMALL)
+    s = load_scenario(path, [*WIDE, "chip.adc.offset_sigma_lsb=3.0", "chip.adc.gain_sigma=0.01",
+                             "chip.adc.inl_max_lsb=1.0", "chip.adc.comparator_noise_lsb=0.5"])
+    built = (s, prepare(s), stages.site_pixel_indices(s))
+    at_sites, _ = _run(built, 3, False)
+    everywhere, _ = _run(built, 3, False, sites=None)
+    cols = at_sites.pixels
+    assert len(cols) < built[1].n_pixels
+    np.testing.assert_array_equal(at_sites.value_e, everywhere.value_e[:, cols])
+    np.testing.assert_allclose(at_sites.mean_e, everywhere.mean_e[:, cols], rtol=1e-12)
+    np.testing.assert_allclose(at_sites.var_e2, everywhere.var_e2[:, cols], rtol=1e-12)
+    np.testing.assert_allclose(at_sites.dark_var_e2[cols], everywhere.dark_var_e2[cols],
+                               rtol=1e-12)
+    assert np.isfinite(everywhere.dark_var_e2).all()
 
 
 def test_fixed_dsp_overflow_counts_are_the_full_paths(wide):

@@ -230,7 +230,8 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
     full = scene
     if split is not None:  # the drawn pixels only, as a scene of their own
         scene, sites, keep = split.scene, split.local(np.asarray(sites)), split.local(keep)
-    reader = _FrameReader(s, scene, photons_level, rng, timer, frames_path)
+    reader = _FrameReader(s, scene, photons_level, rng, timer, frames_path,
+                          moments_at=moments_read_at(s, photons_level, keep, keep_codes))
     pipeline = _TimedPipeline(_dsp_level(s, keep_codes), timer, keep, sites,
                               scene.sensor.e_per_lsb)
     # a run known ahead (steady, and a DSP whose timing no output changes) skips the events
@@ -258,6 +259,25 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
         with timer("pixel"):
             out = shortcuts.restore(s, full, split, out, split.drawn[keep], rng)
     return out
+
+
+def moments_read_at(s: Scenario, photons_level: str, keep: np.ndarray | None,
+                    keep_codes: bool) -> np.ndarray | None:
+    """The pixels whose CMS moments a run reads (:func:`~chiptwin.twin.scene.pixel_frames`'s
+    ``moments_at``), or None for every pixel.
+
+    The DSP carries each pixel's moments beside its codes; a run that keeps outputs at ``keep``
+    drops the others as they leave the DSP. The moments elsewhere are read only where codes are
+    not drawn (the ``expected`` level, whose values are the moments), where the DSP mixes pixels
+    (a program beyond today's chain: ``bin_rows``, ``fir8``, ``wiener``), or by the
+    fixed-vs-float error statistics (``report_error``, over every pixel) and the codes kept for
+    the RTL (``keep_codes``): those keep every pixel's.
+    """
+    d = s.chip.dsp
+    if (keep is None or photons_level not in ("binned", "events") or keep_codes
+            or not is_default(d.program) or d.report_error):
+        return None
+    return keep
 
 
 def _dsp_level(s: Scenario, keep_codes: bool) -> Pipeline:
@@ -289,8 +309,9 @@ class _FrameReader:
     """
 
     def __init__(self, s: Scenario, scene: Scene, photons_level: str, rng: np.random.Generator,
-                 timer: StageTimer, frames_path: Path | None = None) -> None:
-        self.s, self.scene, self.timer = s, scene, timer
+                 timer: StageTimer, frames_path: Path | None = None,
+                 moments_at: np.ndarray | None = None) -> None:
+        self.s, self.scene, self.timer, self.moments_at = s, scene, timer, moments_at
         self.sampled = photons_level in ("binned", "events")
         self.streams = pixel.chunk_streams(rng, scene.n_pixels) if self.sampled else []
         self.events = None
@@ -325,7 +346,8 @@ class _FrameReader:
         stop = min(k + self.scene.block_frames, self.scene.sch.n_frames)
         with self.timer("pixel"):
             self.moments = self.scene.pixel_block(self.s.chip.timing.t_int_s,
-                                                  self.s.chip.adc.gain_error, k, stop)
+                                                  self.s.chip.adc.gain_error, k, stop,
+                                                  self.moments_at)
             self.full_well += self.moments.full_well_pixel_frames
             if self.sampled:
                 self.codes = self._draw(k, stop)

@@ -113,9 +113,9 @@ class Scene:
         blocks = [self.photons_block(k, min(k + b, n)) for k in range(0, n, b)]
         return np.concatenate(blocks).T if blocks else np.zeros((self.n_pixels, 0))
 
-    def pixel_block(self, t_int_s: float, gain_error: float, start: int, stop: int
-                    ) -> PixelFrames:
-        """:func:`pixel_frames` of frames ``start … stop − 1``.
+    def pixel_block(self, t_int_s: float, gain_error: float, start: int, stop: int,
+                    moments_at: np.ndarray | None = None) -> PixelFrames:
+        """:func:`pixel_frames` of frames ``start … stop − 1`` (``moments_at``: as there).
 
         ``start`` is a multiple of :attr:`block_frames` and ``stop`` at most one block later, so
         the numbers are the same whether the scene keeps every block (small scenes: computed at
@@ -125,11 +125,8 @@ class Scene:
             raise ValueError(f"frames {start}…{stop}: not within one block of {self.block_frames}")
         n_frames = self.site_photons.shape[1]
         if 3 * 8 * self.n_pixels * n_frames > MOMENTS_KEPT_BYTES:
-            return pixel_frames(self, t_int_s, gain_error, start, stop)
-        key = ("pixel_frames", t_int_s, gain_error)
-        if key not in self._memo:
-            self._memo[key] = _all_blocks(self, t_int_s, gain_error)
-        whole = self._memo[key]
+            return pixel_frames(self, t_int_s, gain_error, start, stop, moments_at)
+        whole = self.pixel_frames(t_int_s, gain_error, moments_at)
         return PixelFrames(whole.mean_e[start:stop], whole.cds_mean_lsb[start:stop],
                            whole.cds_var_lsb2[start:stop],
                            int(np.count_nonzero(whole.mean_e[start:stop]
@@ -142,21 +139,28 @@ class Scene:
             self._memo[key] = make()
         return self._memo[key]
 
-    def pixel_frames(self, t_int_s: float, gain_error: float) -> PixelFrames:
+    def pixel_frames(self, t_int_s: float, gain_error: float,
+                     moments_at: np.ndarray | None = None) -> PixelFrames:
         """Every frame's :func:`pixel_frames`, block by block (kept for a small scene)."""
-        key = ("pixel_frames", t_int_s, gain_error)
+        key = ("pixel_frames", t_int_s, gain_error, _at_key(moments_at))
         if key in self._memo:
             return self._memo[key]
-        whole = _all_blocks(self, t_int_s, gain_error)
+        whole = _all_blocks(self, t_int_s, gain_error, moments_at)
         if 3 * 8 * self.n_pixels * self.site_photons.shape[1] <= MOMENTS_KEPT_BYTES:
             self._memo[key] = whole
         return whole
 
 
-def _all_blocks(scene: Scene, t_int_s: float, gain_error: float) -> PixelFrames:
+def _at_key(moments_at: np.ndarray | None) -> bytes | None:
+    return None if moments_at is None else np.asarray(moments_at, np.int64).tobytes()
+
+
+def _all_blocks(scene: Scene, t_int_s: float, gain_error: float,
+                moments_at: np.ndarray | None = None) -> PixelFrames:
     """:func:`pixel_frames` of every block of ``scene``, stacked; read-only."""
     n, b = scene.site_photons.shape[1], scene.block_frames
-    parts = [pixel_frames(scene, t_int_s, gain_error, k, min(k + b, n)) for k in range(0, n, b)]
+    parts = [pixel_frames(scene, t_int_s, gain_error, k, min(k + b, n), moments_at)
+             for k in range(0, n, b)]
     if not parts:
         empty = np.zeros((0, scene.n_pixels))
         parts = [PixelFrames(empty, empty, empty, 0)]
@@ -169,7 +173,7 @@ def _all_blocks(scene: Scene, t_int_s: float, gain_error: float) -> PixelFrames:
 
 
 def pixel_frames(scene: Scene, t_int_s: float, gain_error: float, start: int = 0,
-                 stop: int | None = None) -> PixelFrames:
+                 stop: int | None = None, moments_at: np.ndarray | None = None) -> PixelFrames:
     """Expected charge and CMS moments of every pixel in frames ``start … stop − 1`` of ``scene``.
 
     Parameters
@@ -183,6 +187,13 @@ def pixel_frames(scene: Scene, t_int_s: float, gain_error: float, start: int = 0
         ``(1 + gain_error) / e_per_lsb``.
     start, stop : int
         The frames (all by default).
+    moments_at : ndarray of int, optional
+        The pixels whose CMS moments the run reads (sorted flat indices; None: all). With a
+        converter as built its exact moments cost about 0.1 ms a pixel and frame, so a run that
+        reads the DSP's moments at a few pixels (the sites of a large array: outputs elsewhere are
+        dropped as they leave the DSP) has them computed there only; the other pixels' moments
+        are NaN, never a number nobody computed. The ideal converter's moments are closed form
+        and computed everywhere.
 
     Notes
     -----
@@ -202,10 +213,16 @@ def pixel_frames(scene: Scene, t_int_s: float, gain_error: float, start: int = 0
     conv = sensor.converter
     if conv is not None and not conv.ideal:  # the converter as built: its tables, exactly
         full = int(np.count_nonzero(mean_e >= sensor.full_well_e))
-        mean, var = pixel.cms_moments(
-            conv, cds_e, cds_var_e2, ktc_e=sensor.ktc_e, read_noise_e=sensor.read_noise_e,
-            cg_V=sensor.conversion_gain_uV_per_e * 1e-6, pedestal_V=sensor.pedestal_V,
-            n_samples=sensor.cms_samples, true_cds=sensor.true_cds)
+        at = slice(None) if moments_at is None else np.asarray(moments_at, np.int64)
+        if moments_at is not None:
+            conv = scene.once(("converter_at", _at_key(at)), lambda: sensor.converter.at(at))
+        mean = np.full(mean_e.shape, np.nan)
+        var = np.full(mean_e.shape, np.nan)
+        mean[..., at], var[..., at] = pixel.cms_moments(
+            conv, cds_e[..., at], cds_var_e2[..., at], ktc_e=sensor.ktc_e,
+            read_noise_e=sensor.read_noise_e, cg_V=sensor.conversion_gain_uV_per_e * 1e-6,
+            pedestal_V=sensor.pedestal_V, n_samples=sensor.cms_samples,
+            true_cds=sensor.true_cds)
         return PixelFrames(mean_e, mean, var, full_well_pixel_frames=full)
     cds_var_e2 = cds_var_e2 + 2.0 * sensor.read_noise_e * sensor.read_noise_e / sensor.cms_samples
     if not sensor.true_cds:
@@ -226,7 +243,8 @@ class ChainOutput:
     ADC gain error (``chip.adc.gain_error``) shows up as a scale error of every figure.
 
     ``value_e``, ``mean_e`` and ``var_e2`` are ``(n_blocks, n_kept)``: the DSP outputs at the kept
-    ``pixels`` (sorted indices; None = every pixel). ``dark_var_e2`` covers every pixel.
+    ``pixels`` (sorted indices; None = every pixel). ``dark_var_e2`` covers every pixel (NaN
+    where the run read no moments: converters as built, outside the kept pixels).
     ``peak_frame_e`` is the whole DSP output whose kept pixels sum highest (``peak_block``).
     """
 
