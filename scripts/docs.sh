@@ -24,28 +24,8 @@ if [ -z "$PY" ]; then
     if command -v python >/dev/null 2>&1; then PY=python; else PY=python3; fi
 fi
 
-if ! command -v chromium >/dev/null 2>&1 && ! command -v chromium-browser >/dev/null 2>&1 &&
-        [ "${CHIPTWIN_NO_APT:-0}" != "1" ]; then
-    as_root=()
-    if [ "$(id -u)" != "0" ]; then
-        if command -v sudo >/dev/null 2>&1 && sudo -n true 2>/dev/null; then
-            as_root=(sudo -n)
-        else
-            as_root=(none)
-        fi
-    fi
-    if [ "${as_root[*]-}" = "none" ] || ! command -v apt-get >/dev/null 2>&1; then
-        echo "docs.sh: cannot install chromium (no apt-get, or not root and no sudo);" \
-             "the browser check will skip (or fail with CI=true)" >&2
-    else
-        echo "docs.sh: installing chromium with apt-get (the browser check of the site)" >&2
-        export DEBIAN_FRONTEND=noninteractive
-        if ! { "${as_root[@]}" apt-get update -qq >/dev/null &&
-               "${as_root[@]}" apt-get install -y -qq --no-install-recommends chromium \
-                   >/dev/null; }; then
-            echo "docs.sh: apt-get could not install chromium" >&2
-        fi
-    fi
+if ! command -v chromium >/dev/null 2>&1 && ! command -v chromium-browser >/dev/null 2>&1; then
+    bash scripts/apt_install.sh docs.sh "the browser check" chromium
 fi
 
 "$PY" -m pip install -q -e ".[docs]"

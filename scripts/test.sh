@@ -39,28 +39,7 @@ command -v ccache >/dev/null 2>&1 || missing+=(ccache)
 command -v g++ >/dev/null 2>&1 || missing+=(g++)
 command -v make >/dev/null 2>&1 || missing+=(make)
 
-if [ "${#missing[@]}" -gt 0 ] && [ "${CHIPTWIN_NO_APT:-0}" != "1" ]; then
-    as_root=()
-    if [ "$(id -u)" != "0" ]; then
-        if command -v sudo >/dev/null 2>&1 && sudo -n true 2>/dev/null; then
-            as_root=(sudo -n)
-        else
-            as_root=(none)
-        fi
-    fi
-    if [ "${as_root[*]-}" = "none" ] || ! command -v apt-get >/dev/null 2>&1; then
-        echo "test.sh: cannot install ${missing[*]} (no apt-get, or not root and no sudo);" \
-             "the RTL tests will skip (or fail with CI=true)" >&2
-    else
-        echo "test.sh: installing ${missing[*]} with apt-get" >&2
-        export DEBIAN_FRONTEND=noninteractive
-        if ! { "${as_root[@]}" apt-get update -qq >/dev/null &&
-               "${as_root[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" \
-                   >/dev/null; }; then
-            echo "test.sh: apt-get could not install ${missing[*]}" >&2
-        fi
-    fi
-fi
+bash scripts/apt_install.sh test.sh "the RTL tests" "${missing[@]}"
 
 if command -v verilator >/dev/null 2>&1; then
     echo "test.sh: $(verilator --version | head -n 1)  (tested: 5.006)" >&2
