@@ -334,3 +334,25 @@ def test_the_scenario_key_turns_it_on_and_the_summary_says_so():
                                [*sets, 'run.fidelity.photons="events"'])).summary["shortcuts"]
     assert not events["carry_dark_pixels"]["applies"]
     assert events["carry_dark_pixels"]["carried_pixels"] == 0
+
+
+def test_sparse_light_made_in_chunks_is_the_blockwise_product_bit_for_bit(wide, monkeypatch):
+    """A sparse coupling's light is made several blocks at a time (``PHOTON_CHUNK_BYTES``): every
+    block, in order and out of order, is the one-block product to the last bit."""
+    from dataclasses import replace
+
+    from scipy import sparse
+
+    import chiptwin.twin.scene as scene_module
+
+    _, scene, _ = wide
+    monkeypatch.setattr(scene_module, "frames_per_block", lambda n_pixels, samples: 2)
+    monkeypatch.setattr(scene_module, "PHOTON_CHUNK_BYTES", 8 * scene.n_pixels * 6)  # 3 blocks
+    chunked = replace(scene, coupling=sparse.csr_matrix(scene.coupling))
+    n = chunked.site_photons.shape[1]
+    assert n > 12 and chunked.block_frames == 2
+    for start in [*range(0, n, 2), 4, 0, 10]:
+        stop = min(start + 2, n)
+        direct = (chunked.coupling @ chunked.site_photons[:, start:stop]).T
+        np.testing.assert_array_equal(chunked.photons_block(start, stop), direct)
+    assert chunked._memo["photons_chunk"][1].shape == (6, scene.n_pixels)
