@@ -220,7 +220,7 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
     if photons == "events":
         terms.append(_events_term(s, kinetics, frames, length))
     if c.adc.as_built_keys:
-        terms.append(_as_built_term(s, frames * c.n_pixels))
+        terms.append(_as_built_term(s, frames * _moment_pixels(s, photons, dsp)))
     if s.run.fidelity.auto_stages():  # calibrations not yet cached: the scene at the expected
         expected = ps * PIXEL_SAMPLE_S["expected"]  # level once, its converter as built too
         as_built = _as_built_term(s, frames * c.n_pixels).seconds if c.adc.as_built_keys else 0
@@ -352,6 +352,17 @@ def _as_built_term(s: Scenario, pixel_frames: int) -> CostTerm:
     return CostTerm(f"{pixel_frames:.3g} pixel-frames of the converter as built by the series × "
                     f"({AS_BUILT_SERIES_S:g} s + 2 × {k}² harmonics × {AS_BUILT_HARMONIC_S:g} s)",
                     pixel_frames * each, keys)
+
+
+def _moment_pixels(s: Scenario, photons: str, dsp: str) -> int:
+    """Pixels whose converter-as-built moments a run computes: where codes are drawn and today's
+    chain runs without ``report_error``, the sites' pixels only (the outputs kept;
+    :func:`chiptwin.twin.runner.moments_read_at`), else every pixel."""
+    at = s.sites.at_pixels
+    if (photons == "expected" or dsp == "rtl" or not _default_chain(s)
+            or s.chip.dsp.report_error or at == "all"):
+        return s.chip.n_pixels
+    return 1 if at == "centre" else len({tuple(rc) for rc in at})
 
 
 def _default_chain(s: Scenario) -> bool:
