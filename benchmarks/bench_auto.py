@@ -19,6 +19,8 @@ furthest; and whether that shows auto's estimate bounds the error ("holds", "exc
 
     python benchmarks/bench_auto.py [SCENARIO ... | all] [--replicates N] [--budget snr_rel=0.01]
     python benchmarks/bench_auto.py --quick    # atp_glow cut to 30 frames, 2 replicates
+    python benchmarks/bench_auto.py pyro_array_256 --set assay.n_flows=8 \
+        --set run.duration_s=500   # a slow scene shortened (its key flows); the row says so
 
 Ends with the coverage table (markdown) of every scene run.
 """
@@ -98,7 +100,8 @@ def bench(name: str, budget: dict[str, float], replicates: int, rtl: bool,
     print(f"  estimated error {estimate}")
     a, r = np.array(values["auto"]), np.array(values["reference"])  # seeds × sites × 2
     seen = r[:, :, 1].mean(axis=0) >= SEEN_SNR_POWER
-    row = {"scene": name, "levels": choice.levels, "speedup": wr / wa, "n": replicates}
+    label = f"{name} ({', '.join(smaller)})" if smaller else name
+    row = {"scene": label, "levels": choice.levels, "speedup": wr / wa, "n": replicates}
     for k, (figure, key) in enumerate((("signal", "signal_rel"), ("snr_power", "snr_rel"))):
         d = worst(ratio_of_means(a[:, seen, k], r[:, seen, k], family=True))
         if d is None:
@@ -160,6 +163,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--budget", action="append", default=[],
                     help="figure=value (default snr_rel=0.01)")
     ap.add_argument("--rtl", action="store_true", help="reference DSP at rtl (Verilator)")
+    ap.add_argument("--set", action="append", default=[], dest="sets",
+                    help="KEY=VALUE applied to every scene named (a slow scene shortened)")
     ap.add_argument("--events", action="store_true",
                     help="the error's reference at events photons (default binned, its law)")
     args = ap.parse_args(argv)
@@ -170,8 +175,8 @@ def main(argv: list[str] | None = None) -> int:
     photons = "events" if args.events else "binned"
     names = args.scenarios if args.scenarios != ["all"] else sorted(
         p.stem for p in SCENARIOS.glob("*.toml"))
-    print("\n" + markdown([bench(name, budget, args.replicates, args.rtl, photons=photons)
-                            for name in names]))
+    print("\n" + markdown([bench(name, budget, args.replicates, args.rtl, args.sets,
+                                  photons=photons) for name in names]))
     return 0
 
 

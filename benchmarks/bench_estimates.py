@@ -29,10 +29,10 @@ SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 QUICK = ("atp_glow", "auto")
 
 
-def scenario_at(name: str, levels: str, rtl: bool, cache: Path):
+def scenario_at(name: str, levels: str, rtl: bool, cache: Path, extra: list[str] = ()):
     """The scene at ``levels`` ("auto" resolved, or "reference"), with no wall-time limit."""
-    sets = [f'run.fidelity.{st}="auto"' for st in LEVELS] + ["run.error_budget.snr_rel=0.01",
-                                                             "run.max_wall_s=1e7"]
+    sets = [*extra] + [f'run.fidelity.{st}="auto"' for st in LEVELS] + [
+        "run.error_budget.snr_rel=0.01", "run.max_wall_s=1e7"]
     s = load_scenario(SCENARIOS / f"{name}.toml", sets)
     if levels == "auto":
         return resolve(s, cache)[0]
@@ -43,8 +43,9 @@ def scenario_at(name: str, levels: str, rtl: bool, cache: Path):
     return replace(sv, run=replace(sv.run, error_budget=type(sv.run.error_budget)()))
 
 
-def measure(name: str, levels: str, repeat: int, rtl: bool, max_s: float, cache: Path) -> dict:
-    s = scenario_at(name, levels, rtl, cache)
+def measure(name: str, levels: str, repeat: int, rtl: bool, max_s: float, cache: Path,
+            extra: list[str] = ()) -> dict:
+    s = scenario_at(name, levels, rtl, cache, extra)
     terms = cost.wall_estimate(s)
     estimate = sum(t.seconds for t in terms)
     big = max(terms, key=lambda t: t.seconds).what
@@ -72,6 +73,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--repeat", type=int, default=1)
     p.add_argument("--max-s", type=float, default=600.0, help="skip rows estimated past this")
     p.add_argument("--rtl", action="store_true")
+    p.add_argument("--set", action="append", default=[], dest="sets",
+                   help="KEY=VALUE applied to every scene named")
     p.add_argument("--quick", action="store_true", help="atp_glow at auto, one run")
     args = p.parse_args(argv)
     if args.quick:
@@ -85,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for name, levels in pairs:
             r = measure(name, levels, max(args.repeat, 1), args.rtl, args.max_s,
-                        Path(tmp) / "fid.sqlite")
+                        Path(tmp) / "fid.sqlite", args.sets)
             if r["measured_s"] is None:
                 print(f"{name:24s}{levels:>10s}{'not run':>11s}{r['estimate_s']:11.3g}"
                       f"{'':>8s}  {r['largest']}", flush=True)

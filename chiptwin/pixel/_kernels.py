@@ -362,11 +362,14 @@ def chain_chunk(
 
 @NJIT
 def frame_codes(
-    source, mean_e, counted_pixels, counted_e, full_well, ktc, read_noise, true_cds, pedestal, cg_V,
-    v_min, lsb, adc_gain, offset, top, gauss_min_mean, conv, codes_out,
+    source, normal, mean_e, counted_pixels, counted_e, full_well, ktc, read_noise, true_cds,
+    pedestal, cg_V, v_min, lsb, adc_gain, offset, top, gauss_min_mean, conv, codes_out,
 ):  # fmt: skip
-    """Frames of the ``binned`` level, one after another, from ``source`` (the caller's
-    ``Generator``, or its PCG64/SFC64 state: :mod:`~chiptwin.pixel._random`).
+    """Frames of the ``binned`` level, one after another: the counts from ``source``, the kTC,
+    read-noise and comparator normals from ``normal`` (each the caller's ``Generator``, or its
+    PCG64/SFC64 state: :mod:`~chiptwin.pixel._random`). One stream passed as both draws in
+    ``sample_frame``'s order; two keep the normals the same whatever the counts drew (common
+    random numbers across photon, shot, kinetics and optics levels).
 
     ``mean_e`` is ``(n_frames, n)``: the expected charge of each pixel in each frame. Per frame,
     in the order of ``sample_frame`` (so the draws are its draws): the Poisson count of every
@@ -402,7 +405,7 @@ def frame_codes(
         for phase in range(n_ktc + 2 * m):
             j = phase - n_ktc  # the sample row: reset rows 0 … M − 1, then the signal rows
             for i in range(n):
-                z = standard_normal(source)
+                z = standard_normal(normal)
                 if phase == 0 and n_ktc > 0:
                     k_signal[i] = ktc * z
                     if true_cds:
@@ -420,5 +423,5 @@ def frame_codes(
                     codes_out[f, j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
             if built and j >= 0:
                 convert_rows(
-                    row, codes_out[f, j : j + 1], v_min, lsb, adc_gain, offset, top, conv, source
+                    row, codes_out[f, j : j + 1], v_min, lsb, adc_gain, offset, top, conv, normal
                 )

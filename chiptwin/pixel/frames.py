@@ -105,6 +105,7 @@ def binned_codes(
     counted_e: ArrayLike | None = None,
     threads: int | None = None,
     shot_noise: str = "poisson",
+    normal_rng: np.random.Generator | Sequence[np.random.Generator] | None = None,
 ) -> NDArray[np.unsignedinteger]:
     """ADC codes of the reset and signal samples of ``n_frames`` frames, drawn in frame order.
 
@@ -142,6 +143,13 @@ def binned_codes(
         count is ``max(0, rint(λ + √λ·z))``, the normal of the same mean and variance (plus
         1/12 e⁻² of rounding); its total-variation distance to the Poisson law is
         :func:`chiptwin.twin.levels.gaussian_tv` of the mean (≈ 0.13/√λ: 0.004 at λ = 1000).
+    normal_rng : numpy.random.Generator, or a sequence of them, optional
+        The kTC, read-noise and comparator normals' own stream(s), shaped as ``rng``; ``rng``
+        then draws the counts only (the ``gaussian`` level's normal too). The normals are then
+        the same draws whatever the counts' means or law: two runs that differ in the photon,
+        shot, kinetics or optics level share them (common random numbers; the counts of
+        different means or laws are not coupled). Default: ``rng`` draws everything, in
+        ``sample_frame``'s order.
 
     Returns
     -------
@@ -164,18 +172,20 @@ def binned_codes(
     consts = (fw, ktc, read, bool(true_cds), *readout, SHOT_MIN_MEAN_E[shot_noise])
     fold = (read, readout[1])  # read noise (e⁻) and conversion gain (V/e⁻): comparator folded
     if isinstance(rng, np.random.Generator):
-        _draw_chunk(rng, lam, pixels, counted, consts, conv.kernel_conv(0, None, fold), codes)
+        _draw_chunk(rng, normal_rng, lam, pixels, counted, consts,
+                    conv.kernel_conv(0, None, fold), codes)
         return codes
     streams = list(rng)
+    normals = [None] * len(streams) if normal_rng is None else list(normal_rng)
     n_chunks = max(1, -(-lam.shape[1] // CHUNK_PIXELS))
-    if len(streams) != n_chunks:
-        raise ValueError(f"{len(streams)} streams for {lam.shape[1]} pixels: must be {n_chunks}, "
-                         f"one per chunk of {CHUNK_PIXELS}")
+    if len(streams) != n_chunks or len(normals) != n_chunks:
+        raise ValueError(f"{len(streams)} streams ({len(normals)} normal) for {lam.shape[1]} "
+                         f"pixels: must be {n_chunks}, one per chunk of {CHUNK_PIXELS}")
 
     def draw(c: int) -> None:
         lo, hi = c * CHUNK_PIXELS, min((c + 1) * CHUNK_PIXELS, lam.shape[1])
         mine = (pixels >= lo) & (pixels < hi)
-        _draw_chunk(streams[c], lam[:, lo:hi], pixels[mine] - lo,
+        _draw_chunk(streams[c], normals[c], lam[:, lo:hi], pixels[mine] - lo,
                     np.ascontiguousarray(counted[:, mine]), consts,
                     conv.kernel_conv(lo, hi, fold), codes[:, :, lo:hi])
 
@@ -188,22 +198,33 @@ def binned_codes(
     return codes
 
 
-def _draw_chunk(rng: np.random.Generator, lam, pixels, counted, consts, conv, codes) -> None:
-    """:func:`_kernels.frame_codes` on ``rng``: its PCG64 or SFC64 state advanced inline and
-    written back (:mod:`chiptwin.pixel._random`), any other bit generator through numba's
-    ``Generator`` interface (the same draws, ≈ 2× slower)."""
+def _draw_chunk(rng: np.random.Generator, normal_rng: np.random.Generator | None, lam, pixels,
+                counted, consts, conv, codes) -> None:
+    """:func:`_kernels.frame_codes` on ``rng`` (and ``normal_rng``, if given, for the normals):
+    a PCG64 or SFC64 state advanced inline and written back (:mod:`chiptwin.pixel._random`), any
+    other bit generator through numba's ``Generator`` interface (the same draws, ≈ 2× slower)."""
+    if normal_rng is not None and type(normal_rng.bit_generator) is not type(rng.bit_generator):
+        raise ValueError("normal_rng: must have the bit generator of rng "
+                         f"({type(rng.bit_generator).__name__})")
     source = _random.state_of(rng)
+    normal = None if normal_rng is None else _random.state_of(normal_rng)
     # One compiled version per code width: numba compiles the kernel again for every layout and
     # write flag of its arrays (≈ 20 s each on a cold cache; the tests made five). The means go
     # in as a read-only C array, the codes as a C array (a chunk's written back after).
     lam = readonly(np.ascontiguousarray(lam))
     out = codes if codes.flags.c_contiguous else np.empty(codes.shape, codes.dtype)
-    _kernels.frame_codes(rng if source is None else source, lam, pixels, counted, *consts, conv,
-                         out)
+    shot = rng if source is None else source
+    if normal_rng is None:
+        normal_src = shot  # one stream: the same state (or Generator) advanced by every draw
+    else:
+        normal_src = normal_rng if normal is None else normal
+    _kernels.frame_codes(shot, normal_src, lam, pixels, counted, *consts, conv, out)
     if out is not codes:
         codes[...] = out
     if source is not None:
         _random.put_state(rng, source)
+    if normal is not None:
+        _random.put_state(normal_rng, normal)
 
 
 def _counted(pixels: ArrayLike, counted_e: ArrayLike | None, shape: tuple[int, int]

@@ -314,6 +314,11 @@ class _FrameReader:
         self.s, self.scene, self.timer, self.moments_at = s, scene, timer, moments_at
         self.sampled = photons_level in ("binned", "events")
         self.streams = pixel.chunk_streams(rng, scene.n_pixels) if self.sampled else []
+        # The kTC, read-noise and comparator normals on streams of their own, so two runs of a
+        # seed that differ only in what the counts draw (photon, shot, kinetics or optics level)
+        # read the same noise: their difference is the counts' alone (common random numbers).
+        self.normal_streams = pixel.chunk_streams(
+            stage_rng(s.scenario.seed, "read_noise"), scene.n_pixels) if self.sampled else []
         self.events = None
         if photons_level == "events":
             self.events = stages.EventPixels(
@@ -372,7 +377,8 @@ class _FrameReader:
             n_samples=sensor.cms_samples, true_cds=sensor.true_cds,
             conversion_gain_uV_per_e=sensor.conversion_gain_uV_per_e,
             pedestal_V=sensor.pedestal_V, converter=sensor.converter,
-            counted_pixels=pixels, counted_e=counted, shot_noise=self.s.run.fidelity.shot)
+            counted_pixels=pixels, counted_e=counted, shot_noise=self.s.run.fidelity.shot,
+            normal_rng=self.normal_streams)
 
     def close(self) -> None:
         if self.saved is not None:

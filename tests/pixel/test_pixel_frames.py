@@ -104,3 +104,49 @@ def test_bad_arguments_raise_naming_them(kw, name):
     args = {"mean_e": [[1.0, 2.0]], **CASES[0], **READOUT, **kw}
     with pytest.raises(ValueError, match=name):
         binned_codes(np.random.default_rng(0), **args)
+
+
+def _window_totals(codes, m):
+    """Per pixel, the sum over frames of the CDS differences (signal codes − reset codes)."""
+    c = codes.astype(np.int64)
+    return (c[:, m:, :].sum(axis=1) - c[:, :m, :].sum(axis=1)).sum(axis=0)
+
+
+def test_normals_on_their_own_stream_are_common_to_shot_levels():
+    """With ``normal_rng`` the kTC and read-noise normals are the same draws whatever the counts
+    drew: a dim, read-noise-limited array (2 e⁻ a frame, 8 e⁻ read noise) at the poisson and the
+    gaussian shot level, on the same streams, differs by the counts alone, its paired
+    difference's spread ≥ 5× narrower than on independent streams; and the normals' stream
+    is left where the kernel's draws leave it whatever the counts' law."""
+    from chiptwin.fidelity.compare import mean_difference
+
+    kw = dict(full_well_e=2e4, ktc_e=40.0, read_noise_e=8.0, n_samples=1, true_cds=True,
+              **READOUT)
+    lam = np.full((20, 400), 2.0)
+
+    def totals(shot, count_seed, normal_seed):
+        normal = np.random.default_rng(normal_seed)
+        codes = binned_codes(np.random.default_rng(count_seed), lam, shot_noise=shot,
+                             normal_rng=normal, **kw)
+        return _window_totals(codes, 1), normal.bit_generator.state
+
+    ref, ref_state = totals("poisson", 1, 2)
+    common, common_state = totals("gaussian", 1, 2)
+    independent, _ = totals("gaussian", 3, 4)
+    assert common_state == ref_state  # the normals drew the same, whatever the counts did
+    paired = mean_difference(common - ref)
+    unpaired = mean_difference(independent - ref)
+    assert paired.half * 5 <= unpaired.half
+    assert abs(paired.value) <= paired.half  # the two laws' means agree (true difference ≈ 0)
+
+
+def test_one_stream_passed_as_both_is_the_single_stream_path():
+    """``normal_rng=None`` is ``sample_frame``'s draw order (the test above it); two streams
+    give other codes, the same seed the same bits."""
+    kw = dict(CASES[0], **READOUT)
+    lam = _mean_e(5, 7)
+    one = binned_codes(np.random.default_rng(9), lam, **kw)
+    two = binned_codes(np.random.default_rng(9), lam, normal_rng=np.random.default_rng(10), **kw)
+    again = binned_codes(np.random.default_rng(9), lam, normal_rng=np.random.default_rng(10), **kw)
+    assert not np.array_equal(one, two)
+    assert np.array_equal(two, again)
