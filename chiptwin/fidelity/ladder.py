@@ -62,15 +62,28 @@ from chiptwin.twin.levels import (
 )
 from chiptwin.twin.runner import chip_sensor
 
-#: Stages whose levels share every draw for the same seed, so that their noise cancels in the
-#: difference (common random numbers): the DSP levels read the same codes; the converter's
-#: comparator noise is folded into the same read-noise normal. Not kinetics or optics: they
-#: change the Poisson means, and NumPy's Poisson draws of other means from one stream are not
-#: coupled (on atp_glow, na2 against psf over 4 seeds left a 1.8 % half-width on the signal);
-#: nor the photon and shot levels, which draw differently. At events photons the arrival
-#: times follow the light, which neither the DSP nor the converter changes (pyro_1fmol: fixed
-#: against float, 0 ± 0 on every figure).
-SAME_DRAWS = frozenset({"dsp", "adc"})
+def common_draws(a: dict[str, str], b: dict[str, str]) -> bool:
+    """Whether runs of one seed at levels ``a`` and ``b`` share every draw (common random
+    numbers), so that their noise cancels in the difference.
+
+    The kTC, read-noise and comparator normals have a stream of their own
+    (:func:`chiptwin.pixel.binned_codes`' ``normal_rng``), the same whatever the counts drew;
+    the DSP and converter levels read the same codes. The counts are common when both levels
+    draw them the same way: the same photon and shot level and the same light, or the same
+    light's means changed under the ``gaussian`` shot level (one normal a pixel-frame,
+    ``rint(λ + √λ·z)``: the same ``z`` whatever ``λ``). Not under ``poisson`` (NumPy's Poisson
+    draws of other means from one stream are not coupled: on atp_glow na2 against psf over 4
+    seeds left a 1.8 % half-width on the signal), nor across photon or shot levels (``events``
+    draws arrival times where ``binned`` draws counts). The ``expected`` level draws nothing.
+    A coarse ADC re-rounds a moved mean: its quantization is common only where the light is.
+    """
+    if a["photons"] != b["photons"]:
+        return False
+    if a["photons"] == "expected":
+        return True
+    same_light = a["kinetics"] == b["kinetics"] and a["optics"] == b["optics"]
+    return a["shot"] == b["shot"] and (same_light or (a["shot"] == "gaussian"
+                                                      and a["photons"] == "binned"))
 
 
 @dataclass(frozen=True)
@@ -144,11 +157,11 @@ def plan(s: Scenario, reference: dict[str, str] | None = None) -> list[Rung]:
         for level in levels:
             if level == ref[stage] or (stage == "adc" and not s.chip.adc.as_built_keys):
                 continue  # an ideal converter: its two levels are one converter
-            same = stage in SAME_DRAWS  # no change of light: events times too are the same
-            rungs.append(Rung(stage, level, {**ref, stage: level}, crn=same))
+            swapped = {**ref, stage: level}
+            rungs.append(Rung(stage, level, swapped, crn=common_draws(swapped, ref)))
     cheapest = {stage: levels[0] for stage, levels in LEVELS.items()}
     rungs.append(Rung("cheapest", _label(cheapest), cheapest,
-                      crn=cheapest["photons"] == ref["photons"]))
+                      crn=common_draws(cheapest, ref)))
     binned = {**ref, "photons": "binned"}  # the shortcut that skips the dark pixels' draws
     rungs.append(Rung("shortcut", "carry_dark_pixels (photons=binned)", binned, crn=False,
                       carry_dark=True))
@@ -157,8 +170,8 @@ def plan(s: Scenario, reference: dict[str, str] | None = None) -> list[Rung]:
                              "or report_error (chiptwin.twin.shortcuts)")
     if s.run.fidelity.auto_stages():  # the levels auto picks for the scene's budget
         choice = resolve(s)[1]
-        same = all(choice.levels[st] == ref[st] for st in ("photons", "shot"))
-        rungs.append(Rung("auto", _label(choice.levels), choice.levels, crn=same,
+        rungs.append(Rung("auto", _label(choice.levels), choice.levels,
+                          crn=common_draws(choice.levels, ref),
                           estimate=choice.summary()["fidelity_error_estimate"]))
     for r in rungs:
         try:
