@@ -30,7 +30,7 @@ CASES = {
 
 @pytest.mark.parametrize("name", CASES)
 def test_estimate_bounds_the_error_on_common_numbers(name, tmp_path):
-    """Over 4 seeds, per budgeted figure (power SNR, signal), the measured difference is
+    """Over 8 seeds, per budgeted figure (power SNR, signal), the measured difference is
     resolved (95 % half-width ≤ 0.1 % or within the estimate's reach) and the interval's far
     end is within auto's estimate."""
     sets = [f'run.fidelity.{st}="auto"' for st in SAME_DRAWS]
@@ -45,7 +45,10 @@ def test_estimate_bounds_the_error_on_common_numbers(name, tmp_path):
     reference = with_levels(s, ref)
     scenes = prepare(resolved), prepare(reference)
     a, r = [], []
-    for seed in range(4):
+    # 8 seeds: the converter swap shares its normals but not its rounding (the as-built
+    # transitions move every code's), and at 4 seeds crosstalk_microarray's signal half-width
+    # was 0.34 % or 0.46 % by the draws, against auto's estimate of 0.43 %
+    for seed in range(8):
         for out, sv, scene in ((a, resolved, scenes[0]), (r, reference, scenes[1])):
             sv = sv.__class__(**{**sv.__dict__, "scenario": sv.scenario.__class__(
                 **{**sv.scenario.__dict__, "seed": seed})})
