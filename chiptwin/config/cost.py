@@ -253,9 +253,10 @@ def wall_estimate(s: Scenario) -> list[CostTerm]:
     if kinetics == "cascade":
         w = _windows(s)
         per = CASCADE_WINDOW_S * max(1.0, (len(s.assay.template) + 1) / (CASCADE_BASES + 1))
-        terms.append(CostTerm(f"the cascade's yield fit, {CASCADE_FIT_S:g} s, and {w} windows of "
+        fit = CASCADE_FIT_S if s.assay.photons_per_incorporation else 0.0  # no yield: no fit
+        terms.append(CostTerm(f"the cascade's yield fit, {fit:g} s, and {w} windows of "
                               f"its stiff solver × {per:.3g} s",
-                              CASCADE_FIT_S + w * per,
+                              fit + w * per,
                               "run.fidelity.kinetics, assay.n_flows"))
     return terms
 
