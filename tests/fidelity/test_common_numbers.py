@@ -17,8 +17,8 @@ from chiptwin.fidelity.ladder import LEVELS, common_draws, reference_levels, wit
 from chiptwin.twin.runner import prepare, run_prepared
 from tests.conftest import SCENARIOS
 
-#: atp_glow cut to 30 s, the gaussian shot level, a 16-bit ADC (0.01 e⁻ an LSB: the 13-bit ADC's
-#: 0.29-LSB rounding, re-drawn when the light moves, would hide the coupling of the counts).
+#: atp_glow cut to 30 s, the gaussian shot level, a 16-bit ADC (95 e⁻ an LSB: the 13-bit ADC's
+#: 762, its 0.29-LSB rounding re-drawn when the light moves hides the coupling of the counts).
 FINE = ["run.duration_s=30.0", 'run.fidelity.shot="gaussian"', "chip.adc.bits=16",
         "chip.adc.clock_hz=60e6"]
 
