@@ -40,7 +40,7 @@ import numpy as np
 from chiptwin.config import load_scenario
 from chiptwin.config.cost import wall_seconds
 from chiptwin.fidelity import resolve, run
-from chiptwin.fidelity.compare import Difference, ratio_of_means, worst
+from chiptwin.fidelity.compare import RESOLUTION, Difference, ratio_of_means, worst
 from chiptwin.fidelity.ladder import LEVELS, reference_levels, with_levels
 from chiptwin.twin.levels import SEEN_SNR_POWER
 
@@ -129,12 +129,21 @@ def markdown(rows: list[dict]) -> str:
             continue
         d, est = r["snr_rel"]
         v = d.bounded_by(est)
-        need = d.seeds_to_decide(est) or "?"
-        bound = v if v != "unresolved" else (
-            f"unresolved at {d.n} seeds (≈ {need} would decide at this mean)")
+        bound = v if v != "unresolved" else f"unresolved at {d.n} seeds ({_needed(d, est)})"
         lines.append(f"| {r['scene']} | {levels} | {est:.2%} | {d.value:+.2%} ± {d.half:.2%} | "
                      f"{bound} | {_speedup(r['speedup'])} |")
     return "\n".join(lines)
+
+
+def _needed(d: Difference, estimate: float) -> str:
+    """The seeds that would settle an unresolved row: to decide against the estimate at this
+    mean and spread where the estimate is at least the 0.1 % resolution; below it (levels that
+    differ from the reference by a law auto puts near 0) a bound that small cannot be shown on
+    draws that differ, and the count is the one that resolves 0.1 %."""
+    if estimate >= RESOLUTION:
+        need = d.seeds_to_decide(estimate)
+        return f"≈ {need or '?'} would decide at this mean"
+    return f"≈ {d.seeds_to_resolve(RESOLUTION) or '?'} would resolve 0.1 %"
 
 
 def _speedup(x: float) -> str:
@@ -149,9 +158,8 @@ def verdict(d: Difference, estimate: float | None) -> str:
         return text
     v = d.bounded_by(estimate)
     if v == "unresolved":
-        need = d.seeds_to_decide(estimate)
         return (f"{text}: unresolved at {d.n} seeds against the estimate {estimate:.4g} "
-                f"(≈ {need if need else '?'} seeds would decide at this mean and spread)")
+                f"({_needed(d, estimate)})")
     return f"{text}: estimate {estimate:.4g} {'bounds it' if v == 'holds' else 'EXCEEDED'}"
 
 

@@ -62,6 +62,7 @@ from chiptwin.twin.levels import (
 )
 from chiptwin.twin.runner import chip_sensor
 
+
 def common_draws(a: dict[str, str], b: dict[str, str]) -> bool:
     """Whether runs of one seed at levels ``a`` and ``b`` share every draw (common random
     numbers), so that their noise cancels in the difference.
