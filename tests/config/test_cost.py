@@ -175,3 +175,17 @@ def test_the_estimate_is_within_its_factor_of_measured_wall_time(name):
     estimate = cost.wall_seconds(s)
     assert measured / cost.ESTIMATE_FACTOR <= estimate <= measured * cost.ESTIMATE_FACTOR, (
         f"{name}: estimate {estimate:.3g} s, measured {measured:.3g} s")
+
+
+def test_the_physical_law_beside_the_convention_is_charged_its_two_runs():
+    """A paper-convention scene's run adds two expected-level runs (``summary['physical_law']``):
+    charged as twice that scene's own estimate at those levels, and not when it is turned off."""
+    s = load_scenario(resolve_scenario("pyro_paper_yield"))
+    beside = [t for t in cost.wall_estimate(s) if "physical law" in t.what]
+    base = load_scenario(resolve_scenario("pyro_paper_yield"),
+                         ['run.fidelity.photons="expected"', 'chip.dsp.mode="float"'])
+    assert len(beside) == 1
+    own = sum(t.seconds for t in cost.wall_estimate(base, beside=False))
+    assert beside[0].seconds == pytest.approx(2 * own)
+    off = load_scenario(resolve_scenario("pyro_paper_yield"), ["run.beside_physical_law=false"])
+    assert not [t for t in cost.wall_estimate(off) if "physical law" in t.what]
