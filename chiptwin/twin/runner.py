@@ -318,7 +318,7 @@ class _FrameReader:
         # seed that differ only in what the counts draw (photon, shot, kinetics or optics level)
         # read the same noise: their difference is the counts' alone (common random numbers).
         self.normal_streams = pixel.chunk_streams(
-            stage_rng(s.scenario.seed, "read_noise"), scene.n_pixels) if self.sampled else []
+            stages.child_rng(rng, "read_noise"), scene.n_pixels) if self.sampled else []
         self.events = None
         if photons_level == "events":
             self.events = stages.EventPixels(

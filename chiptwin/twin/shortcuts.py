@@ -55,6 +55,7 @@ import numpy as np
 
 from chiptwin.dsp.pipeline import Frame, Pipeline
 from chiptwin.dsp.program import is_default
+from chiptwin.twin import stages
 from chiptwin.twin.scene import ChainOutput, Scene, pixel_frames
 
 #: The switch of the carried-dark-pixels shortcut: ``[run] carry_dark_pixels`` (a bool; read by
@@ -170,9 +171,7 @@ def sub_scene(scene: Scene, pixels: np.ndarray) -> Scene:
 
 
 def _carried_rng(rng: np.random.Generator) -> np.random.Generator:
-    ss = rng.bit_generator.seed_seq
-    return np.random.default_rng(np.random.SeedSequence(
-        ss.entropy, spawn_key=(*ss.spawn_key, CARRIED_STREAM_KEY), pool_size=ss.pool_size))
+    return stages.child_rng(rng, "carried_pixels")  # spawn key CARRIED_STREAM_KEY
 
 
 def _expected_frames(s, scene: Scene, frames: list[int]) -> list[Frame]:

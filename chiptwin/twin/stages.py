@@ -33,6 +33,14 @@ def stage_rng(seed: int, stage: str) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(key,)))
 
 
+def child_rng(rng: np.random.Generator, name: str) -> np.random.Generator:
+    """A stream of its own under ``rng``'s seed, keyed ``crc32(name)`` (far above any chunk
+    number :func:`chiptwin.pixel.chunk_streams` keys), made without advancing ``rng``."""
+    ss = rng.bit_generator.seed_seq
+    return np.random.default_rng(np.random.SeedSequence(
+        ss.entropy, spawn_key=(*ss.spawn_key, zlib.crc32(name.encode())), pool_size=ss.pool_size))
+
+
 def site_pixels(s: Scenario) -> np.ndarray:
     """(n_sites, 2) array of the [row, col] each site sits above."""
     at = s.sites.at_pixels
