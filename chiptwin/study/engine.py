@@ -32,7 +32,7 @@ from chiptwin.detection.stats import (
     rate_estimate,
 )
 from chiptwin.study import search, sensitivity
-from chiptwin.study.execute import make_executor
+from chiptwin.study.execute import WORKER_TIMEOUT_S, batches, make_executor, rows_per_task
 from chiptwin.study.metrics import CATALOGUE, row_metrics
 from chiptwin.study.rows import RowTask, chip_seed, row_seed
 from chiptwin.study.spec import Point, Study, load_study, point_scenario
@@ -55,7 +55,10 @@ class StudyResult:
 def run_study(study: Study | str | Path, workers: int | None = None,
               scheduler: str | None = None, db: str | Path = ":memory:", fresh: bool = False,
               progress: Progress | None = None,
-              announce: Callable[[float, int], None] | None = None) -> StudyResult:
+              announce: Callable[[float, int], None] | None = None, *,
+              task_rows: int | None = None, in_flight: int | None = None,
+              scheduler_file: str | None = None,
+              worker_timeout_s: float = WORKER_TIMEOUT_S) -> StudyResult:
     """Run a study and return its table and answer.
 
     Parameters
@@ -68,6 +71,11 @@ def run_study(study: Study | str | Path, workers: int | None = None,
     progress : ``progress(rows_done, rows_total)`` as rows finish
     announce : ``announce(seconds, rows)`` once before the first row: the estimated wall time
         of the rows not stored yet (:func:`estimate_s`) on this executor's workers
+    task_rows : rows per executor task (default: a few seconds of rows,
+        :func:`chiptwin.study.execute.rows_per_task`); the table does not depend on it
+    in_flight : executor tasks out at once (default: two per worker)
+    scheduler_file : a Dask scheduler file (instead of ``scheduler``), as HPC clusters write
+    worker_timeout_s : seconds a Dask cluster may take to show its first worker
     """
     t0 = time.perf_counter()
     if not isinstance(study, Study):
@@ -75,7 +83,8 @@ def run_study(study: Study | str | Path, workers: int | None = None,
 
         study = load_study(resolve_study(str(study)), resolve_scenario)
     plan = Plan(study)  # validates every point before anything runs
-    executor = make_executor(workers, scheduler)  # a bad scheduler fails before the store
+    # a bad scheduler fails before the store
+    executor = make_executor(workers, scheduler, in_flight, scheduler_file, worker_timeout_s)
     try:
         store = Store(db, study, fresh=fresh)
         try:
@@ -85,7 +94,7 @@ def run_study(study: Study | str | Path, workers: int | None = None,
                 left = max(rows - resumed, 0)
                 start = WORKER_START_S if executor.workers > 1 else 0.0
                 announce(start + per_row * left / max(executor.workers, 1), left)
-            runner = _Runner(plan, store, executor, progress)
+            runner = _Runner(plan, store, executor, progress, task_rows)
             decisions = runner.search()
             table = store.rows()
         finally:
@@ -148,25 +157,35 @@ class Plan:
 class _Runner:
     """Runs missing rows through the executor into the store; keeps the rows in memory."""
 
-    def __init__(self, plan: Plan, store: Store, executor, progress: Progress | None) -> None:
+    def __init__(self, plan: Plan, store: Store, executor, progress: Progress | None,
+                 task_rows: int | None = None) -> None:
         self.plan, self.store, self.executor, self.progress = plan, store, executor, progress
+        self.task_rows = task_rows
         self.rows: dict[tuple[str, int], dict] = {(r["point"], r["replicate"]): r
                                                   for r in store.rows()}
         self.computed = 0
         self.total = 0
 
     def ensure(self, wanted: list[tuple[str, int]]) -> None:
-        """Run every ``(point, replicates)`` row not stored yet."""
+        """Run every ``(point, replicates)`` row not stored yet, in tasks of consecutive rows
+        (a point's replicates together); each finished task's rows stored in one transaction."""
         tasks = list({(t.point, t.replicate): t for pid, n in wanted
                       for t in self.plan.tasks(pid, range(n))
                       if (t.point, t.replicate) not in self.rows}.values())
         self.total = max(self.total, len(self.rows) + len(tasks))
-        for row in self.executor.run(tasks):
-            self.store.add(row)
-            self.rows[(row["point"], row["replicate"])] = row
-            self.computed += 1
+        size = self.task_rows or rows_per_task(self.row_s(), len(tasks), self.executor.workers)
+        for rows in self.executor.run(batches(tasks, size)):
+            self.store.add(rows)
+            for row in rows:
+                self.rows[(row["point"], row["replicate"])] = row
+            self.computed += len(rows)
             if self.progress:
                 self.progress(len(self.rows), self.total)
+
+    def row_s(self) -> float:
+        """A row's seconds: the mean measured over the rows run so far, else the estimate."""
+        ran = [r["wall_s"] for r in self.rows.values() if r["status"] == "ok"]
+        return sum(ran) / len(ran) if ran else estimate_s(self.plan)[0]
 
     def point_rows(self, pid: str, n: int) -> list[dict]:
         return [self.rows[(pid, r)] for r in range(n) if (pid, r) in self.rows]
