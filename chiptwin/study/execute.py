@@ -31,27 +31,14 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
 from chiptwin.config import ScenarioError
+from chiptwin.config.cost import (
+    IN_FLIGHT_PER_WORKER,
+    MAX_ROWS_PER_TASK,
+    MAX_WORKER_TIMEOUT_S,
+    TASK_TARGET_S,
+    WORKER_TIMEOUT_S,
+)
 from chiptwin.study.rows import RowTask, run_rows
-
-#: Seconds of rows one task aims at. A task costs the Dask scheduler about a millisecond and the
-#: client one future and one message (the pool: one pickled message each way); at a few seconds
-#: a task that is under 0.1 % of its rows' time, while an interrupted study loses at most
-#: ``in_flight`` tasks of work and the study's last tasks end within seconds of each other.
-TASK_TARGET_S = 2.0
-#: Rows a task holds at most (``--rows-per-task``): its rows travel back in one message, and an
-#: interrupted task loses them all.
-MAX_ROWS_PER_TASK = 10_000
-#: Tasks out at once per worker: one running, one queued behind it, so a worker never waits
-#: for the client between two tasks.
-IN_FLIGHT_PER_WORKER = 2
-#: Tasks in flight at most (``--in-flight``): each is a future the client holds.
-MAX_IN_FLIGHT = 10_000
-#: Seconds a Dask cluster may take to show its first worker (``--worker-timeout``) by default:
-#: a local or running cluster has workers within seconds; a batch queue's may wait longer
-#: (raise it there).
-WORKER_TIMEOUT_S = 60.0
-#: ``--worker-timeout`` at most: a day, longer than any batch queue's wait worth sitting through.
-MAX_WORKER_TIMEOUT_S = 86_400.0
 
 #: Seconds between two looks of a worker's watchdog at its parent's pid.
 WATCHDOG_PERIOD_S = 0.5
