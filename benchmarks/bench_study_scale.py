@@ -18,8 +18,9 @@ worker processes) and each size (``--small`` and ``--rows``):
   (each row's ``wall_s``, measured in the worker): ``wall × workers / Σ wall_s − 1``. It holds
   the workers' start (≈ 4 s each on this machine, paid once), the client, the store, the
   scheduler and any idle worker;
-- **steady overhead**: the same from the first task's rows stored to the end: the workers'
-  start left out, what a longer study tends to;
+- **marginal overhead**: the same between the two sizes, ``(wall_L − wall_S) × workers /
+  (Σ wall_s_L − Σ wall_s_S) − 1``: what each further row costs beyond its own time, the
+  workers' start (paid once) cancelled;
 - **client memory**: tracemalloc's peak of the study (this process; workers are other
   processes) and the process's peak RSS growth, per row, at both sizes: flat bookkeeping
   shows as equal bytes per row (the table itself, returned whole, is O(rows)); tracemalloc
@@ -108,26 +109,17 @@ def rss_mb() -> float:
 
 
 def measure(path: Path, workers: int, scheduler: str | None) -> dict:
-    first: list[tuple[float, int]] = []  # (time, rows) when the first task's rows were stored
-
-    def progress(done: int, total: int) -> None:
-        if not first:
-            first.append((time.perf_counter(), done))
-
     rss0 = rss_mb()
     tracemalloc.start()
     t0 = time.perf_counter()
-    result = run_study(path, workers=workers, scheduler=scheduler, progress=progress)
+    result = run_study(path, workers=workers, scheduler=scheduler)
     wall = time.perf_counter() - t0
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     rows = len(result.table)
     row_s = sum(r["wall_s"] for r in result.table) / rows
-    # steady state: from the first task's rows stored to the end (the workers' start excluded)
-    steady = (rows - first[0][1]) / (t0 + wall - first[0][0])
     return {"table": result.table, "rows": rows, "wall_s": wall, "rows_per_s": rows / wall,
             "row_ms": 1e3 * row_s, "overhead": wall * workers / (row_s * rows) - 1,
-            "steady_overhead": workers / (steady * row_s) - 1,
             "peak_mb": peak / 2**20, "rss_growth_mb": rss_mb() - rss0, "study": result.study}
 
 
@@ -167,22 +159,28 @@ def main() -> None:
     import distributed  # noqa: F401  (the client's imports, not measured)
 
     run_study(study_file(folder, POINTS), workers=1)
-    print("| rows | executor | wall s | rows/s | row ms | overhead | steady overhead | "
+    print("| rows | executor | wall s | rows/s | row ms | overhead | "
           "client peak MB | peak B/row | RSS growth MB |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    last = {}
+    print("|---|---|---|---|---|---|---|---|---|")
+    last, first = {}, {}
     for rows in (args.small, args.rows):
         path = study_file(folder, rows)
         for name, scheduler in (("pool", None), ("dask", "local")):
             m = measure(path, args.workers, scheduler)
+            first.setdefault(name, m)
             last[name] = m
             print(f"| {m['rows']} | {name} | {m['wall_s']:.1f} s | {m['rows_per_s']:.0f} | "
                   f"{m['row_ms']:.2f} ms | {100 * m['overhead']:.1f} % | "
-                  f"{100 * m['steady_overhead']:.1f} % | "
                   f"{m['peak_mb']:.1f} MB | {2**20 * m['peak_mb'] / m['rows']:.0f} | "
                   f"{m['rss_growth_mb']:.0f} MB |", flush=True)
         assert same(last["pool"]["table"], last["dask"]["table"]), "pool and Dask tables differ"
         print(f"  {rows} rows: pool and Dask tables identical row for row")
+    for name, large in last.items():
+        small = first[name]
+        busy = (large["row_ms"] * large["rows"] - small["row_ms"] * small["rows"]) / 1e3
+        marginal = (large["wall_s"] - small["wall_s"]) * args.workers / busy - 1
+        print(f"{name}: marginal overhead {100 * marginal:.1f} % per row from {small['rows']} "
+              f"to {large['rows']} rows (the workers' start cancelled)")
     m = last["pool"]
     per_task = rows_per_task(m["row_ms"] / 1e3, m["rows"], args.workers)
     batched, single = sqlite_rates(folder, m["study"], m["table"], per_task)
