@@ -198,3 +198,39 @@ def looks_confidence(confidence: float, looks: int) -> float:
     """Per-look level that keeps ``looks`` sequential looks at ``confidence`` overall
     (Bonferroni: conservative, valid whatever the stopping rule)."""
     return 1.0 - (1.0 - confidence) / max(looks, 1)
+
+
+#: Share of the error rate ``α = 1 − confidence`` that a grid stopping early spends on its interim
+#: looks (all but the last); the last look, at the cap, keeps the rest. See :func:`look_levels`.
+INTERIM_ALPHA_SHARE = 0.1
+
+
+def look_levels(confidence: float, looks: int) -> tuple[float, ...]:
+    """Per-look confidence of a sequential test that may stop at any of ``looks`` looks, with
+    ``confidence`` overall: Haybittle–Peto's shape (strict interim looks, the last near the
+    fixed design's level), made exact by Bonferroni.
+
+    With ``α = 1 − confidence`` and ``s =`` :data:`INTERIM_ALPHA_SHARE`, look ``k < K`` is taken at
+    ``1 − sα/(K − 1)`` and the last at ``1 − (1 − s)α``; one look is taken at ``confidence``.
+    The spends add to α, so whatever the stopping rule and however correlated the looks (they
+    share rows): a wrong decision at the look where a point stops is a bound on the wrong side
+    of the true value at that look, of probability ≤ that look's spend, and the union over the
+    looks is ≤ α. At 95 % in 9 looks: 99.94 % at each of 8 interim looks (z ≈ 3.2, as
+    Haybittle's and Peto's "p < 0.001 before the end": Haybittle, Br. J. Radiol. 44:793, 1971;
+    Peto et al., Br. J. Cancer 34:585, 1976) and 95.5 % at the cap, where an even split
+    (:func:`looks_confidence`) takes 99.44 % at every look: a grid point decided at the cap by
+    the one-look design then stays decided unless its bound lies within the 95 → 95.5 %
+    quantile step of its threshold (3 % of a t bound's width at 89 degrees of freedom), while
+    under the even split a rate with no event in 3,240 trials bounds at 1.6e-3 instead of 9.2e-4.
+    """
+    if looks <= 1:
+        return (confidence,)
+    alpha = 1.0 - confidence
+    interim = 1.0 - INTERIM_ALPHA_SHARE * alpha / (looks - 1)
+    return (interim,) * (looks - 1) + (1.0 - (1.0 - INTERIM_ALPHA_SHARE) * alpha,)
+
+
+def look_sizes(cap: int, batch: int) -> tuple[int, ...]:
+    """Replicates at each sequential look: ``batch``, ``2·batch``, … up to ``cap`` (the last look
+    at ``cap`` even when ``batch`` does not divide it)."""
+    return tuple(min(n, cap) for n in range(batch, cap + batch, batch))

@@ -24,8 +24,11 @@ from chiptwin import __version__
 from chiptwin.config import ScenarioError
 from chiptwin.config.cost import WORKER_START_S
 from chiptwin.detection.stats import (
+    INTERIM_ALPHA_SHARE,
     Estimate,
     decide,
+    look_levels,
+    look_sizes,
     looks_confidence,
     loss_db_interval,
     mean_estimate,
@@ -39,6 +42,9 @@ from chiptwin.study.spec import Point, Study, load_study, point_scenario
 from chiptwin.study.store import Store
 
 Progress = Callable[[int, int], None]
+#: Point statuses that end a point's looks (``undecided`` adds a batch; ``measured`` has no
+#: requirement to decide).
+DECIDED = ("pass", "fail", "invalid")
 
 
 @dataclass
@@ -176,28 +182,49 @@ class _Runner:
         study, plan = self.plan.study, self.plan
         cap = study.replicates
         refs = sorted({r for r in plan.reference_of.values() if r})
-        if study.search == "grid":
+        if study.search == "grid" and not study.stop_early:
             self.total = (len(plan.points) + len(plan.references)) * cap
             self.ensure([(pid, cap) for pid in refs] + [(p.id, cap) for p in plan.points])
             return {p.id: {"n": cap, "confidence": study.confidence} for p in plan.points}
         self.ensure([(pid, cap) for pid in refs])
+        if study.search == "grid":
+            return self.stop_early()
         looks = -(-cap // study.batch)
         conf = looks_confidence(study.confidence, looks)
         out: dict[str, dict[str, Any]] = {}
         for group in _given_groups(plan.points):
             def decide_index(i: int, group=group) -> str:
                 p = group[i]
-                n = 0
-                while n < cap:
-                    n = min(cap, n + study.batch)
+                for n in look_sizes(cap, study.batch):
                     self.ensure([(p.id, n)])
                     status = point_status(plan, p, self.point_rows(p.id, n),
                                           self._ref_rows(p.id), conf)["status"]
-                    if status in ("pass", "fail", "invalid"):
+                    if status in DECIDED:
                         break
                 out[p.id] = {"n": n, "confidence": conf, "looks": looks}
                 return status
             search.bisect(len(group), decide_index, study.verify)
+        return out
+
+    def stop_early(self) -> dict[str, dict[str, Any]]:
+        """A grid in looks (:func:`~chiptwin.detection.stats.look_sizes`): each look runs the
+        next ``batch`` replicates of every point not decided yet, all in one round through the
+        executor; a point whose status is decided at the look's level
+        (:func:`~chiptwin.detection.stats.look_levels`) stops there. The references ran whole
+        before (every loss interval of a look uses all of its reference's rows)."""
+        plan, study = self.plan, self.plan.study
+        sizes = look_sizes(study.replicates, study.batch)
+        levels = look_levels(study.confidence, len(sizes))
+        self.total = (len(plan.points) + len(plan.references)) * study.replicates  # at most
+        out: dict[str, dict[str, Any]] = {}
+        undecided = list(plan.points)
+        for look, (n, level) in enumerate(zip(sizes, levels, strict=True), 1):
+            self.ensure([(p.id, n) for p in undecided])
+            for p in undecided:
+                out[p.id] = {"n": n, "confidence": level, "look": look, "looks": len(sizes)}
+            undecided = [p for p in undecided if point_status(
+                plan, p, self.point_rows(p.id, n), self._ref_rows(p.id), level)["status"]
+                not in DECIDED]
         return out
 
     def _ref_rows(self, pid: str) -> list[dict]:
@@ -307,14 +334,41 @@ def summarise(plan: Plan, table: list[dict], searched: dict[str, dict]) -> dict[
                        "requirement": "met when the one-sided bound at `confidence` is on the "
                                       "allowed side; " + search.UNDECIDED_IS_FAIL,
                        "bisect": "per-look confidence 1-(1-c)/looks (Bonferroni over the "
-                                 "sequential looks)" if study.search == "bisect" else None},
+                                 "sequential looks)" if study.search == "bisect" else None,
+                       "stop_early": STOP_EARLY_RULE if study.stop_early else None},
         "runs": {"total": len(table), **counts},
         "chiptwin_version": __version__,
     }
+    if study.stop_early:
+        summary["stop_early"] = _stop_early_summary(plan, table, searched)
     if study.kind == "sensitivity":  # a budget study's study.json stays as it was
         summary["kind"] = study.kind
         summary["sensitivity"] = sensitivity.analyse(summary, study.assumptions)
     return summary
+
+
+STOP_EARLY_RULE = (
+    "replicates added in looks of `batch` to every point not yet decided; a point stops at the "
+    "first look that decides it (pass, fail or invalid), at most `replicates`; look k of K at "
+    "one-sided level 1 - s(1-c)/(K-1) before the last and 1 - (1-s)(1-c) at the last, "
+    f"s = {INTERIM_ALPHA_SHARE:g} (Haybittle-Peto's shape; the spends add to 1-c, so Bonferroni "
+    "keeps the confidence over the looks); references run every replicate")
+
+
+def _stop_early_summary(plan: Plan, table: list[dict], searched: dict[str, dict]
+                        ) -> dict[str, Any]:
+    """``study.json``'s ``stop_early``: the looks, where the points stopped, the runs saved
+    against the whole grid (every point and reference at ``replicates``)."""
+    study = plan.study
+    sizes = look_sizes(study.replicates, study.batch)
+    levels = look_levels(study.confidence, len(sizes))
+    stopped = [sum(info.get("look") == k for info in searched.values())
+               for k in range(1, len(sizes) + 1)]
+    whole = (len(plan.points) + len(plan.references)) * study.replicates
+    return {"rule": STOP_EARLY_RULE, "batch": study.batch,
+            "looks": [{"replicates": n, "confidence": c, "points_stopped": k}
+                      for n, c, k in zip(sizes, levels, stopped, strict=True)],
+            "runs_whole_grid": whole, "runs": len(table), "runs_saved": whole - len(table)}
 
 
 def _design_effects(points: list[dict]) -> str | None:
