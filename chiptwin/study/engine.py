@@ -298,7 +298,7 @@ def summarise(plan: Plan, table: list[dict], searched: dict[str, dict]) -> dict[
         st = point_status(plan, p, rows, ref_rows, info["confidence"] if info else
                           study.confidence) if info else {"status": "not_visited",
                                                             "estimates": {}, "decisions": {}}
-        status_of[p.id] = st
+        status_of[p.id] = {**st, "confidence": info["confidence"] if info else None}
         points.append({
             "id": p.id, "params": p.params, "given": list(p.given), "cost": list(p.cost),
             "reference": ref, "status": st["status"], "replicates": len(rows),
@@ -411,11 +411,15 @@ def _answer(study: Study, group: list[Point], status_of: dict) -> dict[str, Any]
         bounds[str(q)] = {"estimate": e.value, "bound": bound, "n": e.n, "method": e.method,
                           **({"k": e.k, "trials": e.trials} if e.k is not None else {})}
     return {"given": given, "point": p.params, "id": p.id, "bounds": bounds,
-            "statement": statement(study, p, est)}
+            "statement": statement(study, p, est, status_of[p.id]["confidence"])}
 
 
-def statement(study: Study, p: Point, est: dict[str, Estimate]) -> str:
-    """The answer in one sentence, with every bound and its n."""
+def statement(study: Study, p: Point, est: dict[str, Estimate], level: float | None = None
+              ) -> str:
+    """The answer in one sentence, with every bound, its level and its n (a point decided at a
+    sequential look: the look's level, the study's confidence holding over the looks)."""
+    at = f"{study.confidence:.0%}" if level in (None, study.confidence) else \
+        f"{level:.4%} (its look's level; {study.confidence:.0%} over the looks)"
     budget = ", ".join(f"{k} = {v}" for k, v in p.params.items()
                        if k in {a.key for a in study.budget_axes})
     parts = []
@@ -425,7 +429,7 @@ def statement(study: Study, p: Point, est: dict[str, Estimate]) -> str:
         side = "upper" if q.op == "<=" else "lower"
         seen = f"{e.k}/{e.trials} {CATALOGUE[q.metric].unit}" if e.k is not None else \
             f"{e.value:.4g}"
-        parts.append(f"{q} ({seen}; one-sided {study.confidence:.0%} {side} bound "
+        parts.append(f"{q} ({seen}; one-sided {at} {side} bound "
                      f"{bound:.3g}, {e.method}, n = {e.n} runs)")
     return f"cheapest: {budget}: " + "; ".join(parts)
 
