@@ -15,7 +15,7 @@ Layout (``scenarios/studies/*.toml`` are worked examples)::
     reference = { "chip.adc.bits" = 20 }   # the ideal that losses are measured against
     set = { "run.fidelity.photons" = "binned" }  # overrides applied to every point
     search = "grid"                 # or "bisect" on the one budget axis
-    stop_early = false              # true: a grid adds `batch` replicates a look, stops decided points
+    stop_early = false              # true: looks of `batch` replicates; decided points stop
 
     [[study.axis]]                  # axes in order of cost significance: the first is the budget
     key = "chip.adc.bits"
