@@ -3,7 +3,8 @@
 Order of work: (1) every point's scenario is validated before the first run (a typo costs a
 second; an inconsistent combination becomes an ``invalid`` point, shown in the report); (2) the
 reference points run first (their rows define the ideal of ``snr_loss_db``); (3) the grid runs
-every point × replicate, or the bisection runs points one at a time, adding ``batch`` replicates
+every point × replicate (with ``stop_early``, in looks of ``batch`` replicates, each point until
+it is decided), or the bisection runs points one at a time, adding ``batch`` replicates
 until every requirement is decided (or the cap ``replicates`` is reached); (4) rows already in
 the store are never recomputed, so the same command resumes an interrupted study.
 """
