@@ -96,12 +96,16 @@ def test_rate_decisions_are_wrong_at_most_one_minus_confidence():
 
 TINY = STUDY.replace("replicates = 3", "replicates = 6\nbatch = 2").replace(
     "values = [6, 8, 10]", "values = [11, 13]").replace(
-    'base_error_rate = "<= 0.2"', 'base_error_rate = "<= 0.2"\nsnr_loss_db = "<= 5"')
+    'base_error_rate = "<= 0.2"',
+    'base_error_rate = "<= 0.2"\nsnr_loss_db = "<= 5"\ncalls_correct = ">= 0.5"')
 
 
 def test_a_grid_that_stops_early_stores_fewer_rows_for_the_same_answer(tmp_path):
-    """11 bits lose ≈ 13 dB against 14 bits and 13 bits ≈ 2.4 dB, each decided against 5 dB at
-    the first look of 2 replicates: 2 + 2 rows instead of 6 + 6 (the reference runs its 6)."""
+    """11 bits lose ≈ 13 dB against 14 bits, decided against 5 dB at the first look of 2
+    replicates (a fail); 13 bits lose ≈ 2.4 dB, but its 2 reads a run all right bound
+    calls_correct above 0.5 only from 8 reads at the interim level 1 − 0.1·0.1/2 (0.005^(1/8) =
+    0.52): it passes at the second look. 2 + 4 rows instead of 6 + 6 (the reference runs its 6):
+    replicate counts differ between points, and the answer is the whole grid's."""
     (tmp_path / "full").mkdir()
     full = run_study(write_study(tmp_path / "full", TINY), workers=1)
     early_path = write_study(tmp_path, TINY.replace("batch = 2", "batch = 2\nstop_early = true"))
@@ -110,10 +114,12 @@ def test_a_grid_that_stops_early_stores_fewer_rows_for_the_same_answer(tmp_path)
     assert early.answer[0]["point"] == full.answer[0]["point"] == {"chip.adc.bits": 13}
     assert [p["status"] for p in early.summary["points"]] == [
         p["status"] for p in full.summary["points"]] == ["fail", "pass"]
-    assert len(full.table) == 18 and len(early.table) == 6 + 2 + 2
+    assert early.summary["monotonicity"] == full.summary["monotonicity"]
+    assert len(full.table) == 18 and len(early.table) == 6 + 2 + 4
     se = early.summary["stop_early"]
-    assert se["runs_saved"] == 8 and se["looks"][0]["points_stopped"] == 2
-    assert [p["replicates"] for p in early.summary["points"]] == [2, 2]
+    assert se["runs_saved"] == 6
+    assert [k["points_stopped"] for k in se["looks"]] == [1, 1, 0]
+    assert [p["replicates"] for p in early.summary["points"]] == [2, 4]
     # every stored row is a row of the whole grid (same seeds, same values)
     whole = {(r["point"], r["replicate"]): r["metrics"] for r in full.table}
     assert all(whole[(r["point"], r["replicate"])] == r["metrics"] for r in early.table)
@@ -126,7 +132,7 @@ def test_report_says_what_stopping_early_saved(tmp_path):
     out = tmp_path / "out"
     assert main(["study", str(path), "--out", str(out), "--workers", "1", "--quiet"]) == 0
     report = (out / "report.md").read_text()
-    assert "Stopped early: 10 runs of the whole grid's 18 (8 saved, 44%)" in report
+    assert "Stopped early: 12 runs of the whole grid's 18 (6 saved, 33%)" in report
     assert "stop_early: replicates added in looks of `batch`" in report
 
 
