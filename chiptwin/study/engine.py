@@ -435,7 +435,7 @@ def statement(study: Study, p: Point, est: dict[str, Estimate], level: float | N
     """The answer in one sentence, with every bound, its level and its n (a point decided at a
     sequential look: the look's level, the study's confidence holding over the looks)."""
     at = f"{study.confidence:.0%}" if level in (None, study.confidence) else \
-        f"{level:.4%} (its look's level; {study.confidence:.0%} over the looks)"
+        f"{100 * level:.4g}% (its look's level; {study.confidence:.0%} over the looks)"
     budget = ", ".join(f"{k} = {v}" for k, v in p.params.items()
                        if k in {a.key for a in study.budget_axes})
     parts = []
