@@ -9,11 +9,11 @@ wall times and their ratio, and whether every answer and every point's status ar
 ``--bits LO HI`` narrows the first axis (``adc_bits_pyro``: ``--bits 13 16``, the answers'
 range: its 10-bit points take minutes each to prepare as built).
 
-Measured (2026-11-28, 2 workers, a 2-core machine shared with other jobs):
-``frame_memory --batch 2``: 72 rows of 120, the same answer and statuses, 14–17 s against
-15–20 s (two pairs), and 33–45 s against 42–54 s at a heavier load (time ratio 0.78–0.83); ``adc_bits_pyro --bits 13 16 --batch 10 --repeat 1`` (its references' 720 rows
-reused from an earlier run on both sides): 3,070 rows of 3,600, the same 8 answers and 40
-statuses, 169 s against 262 s.
+Measured (2026-11-28, 2 workers, a 2-core machine shared with other jobs): ``frame_memory
+--batch 2``: 72 rows of 120, the same answer and statuses, 14–17 s against 15–20 s (two pairs),
+and 33–45 s against 42–54 s at a heavier load (time ratio 0.78–0.83); ``adc_bits_pyro --bits 13
+16 --batch 10 --repeat 1`` (its references' 720 rows reused from an earlier run on both sides):
+3,070 rows of 3,600, the same 8 answers and 40 statuses, 169 s against 262 s.
 
 Numbers only; nothing is asserted (speed never lives in the tests).
 """
