@@ -45,7 +45,8 @@ LUCIFERASE_KM_ATP_GLOW_M: float = 20e-6
 """Luciferase K_m(ATP), glow site (DeLuca & McElroy 1984) [lit]. Unit: M."""
 
 LUCIFERASE_KM_LUCIFERIN_M: float = 15e-6
-"""Luciferase K_m(luciferin) (as collected by Ribeiro & Esteves da Silva 2008) [lit]. Unit: M."""
+"""Luciferase K_m(luciferin) [lit; listed with the K_i values of Ribeiro & Esteves da Silva 2008,
+the primary source not traced here: sources.md K18]. Unit: M."""
 
 LUCIFERASE_KI_LAMP_M: float = 3.8e-9
 """Inhibition constant of dehydroluciferyl-AMP (L-AMP) (Ribeiro & Esteves da Silva 2008)
