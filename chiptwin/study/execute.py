@@ -6,7 +6,7 @@ table. The pool uses ``spawn`` (numba and forked threads do not mix) and stays u
 batches of a bisect search; Dask runs on an existing cluster (``--scheduler tcp://host:8786``) or
 a ``distributed.LocalCluster`` it starts (``--scheduler local``).
 
-Workers never outlive the study (issue 22): a pool worker asks Linux to send it SIGKILL when its
+Workers never outlive the study: a pool worker asks Linux to send it SIGKILL when its
 parent dies (``prctl(PR_SET_PDEATHSIG)``) and, as a fallback on any platform, watches its parent's
 pid from a thread; an interrupted study (Ctrl-C, SIGTERM) terminates its workers at once rather
 than waiting for the rows in flight. A Dask client cancels its futures when interrupted; a client

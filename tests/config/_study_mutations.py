@@ -1,4 +1,4 @@
-"""Mutations of the bundled studies, one key at a time (issue 22, item 5).
+"""Mutations of the bundled studies, one key at a time.
 
 The study-file twin of :mod:`tests.config._mutations`: every key of every bundled study
 (``[study]``'s keys, each ``[[study.axis]]`` and ``[[study.metric]]`` entry, each key of the
