@@ -1,4 +1,4 @@
-"""How long a run would take and how much it would write, estimated before it starts (issue 22).
+"""How long a run would take and how much it would write, estimated before it starts.
 
 The estimate adds the stage costs the twin already knows from a scenario, each a count times a
 cost per unit (:func:`wall_estimate`, term by term):

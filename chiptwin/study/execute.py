@@ -10,7 +10,7 @@ forked threads do not mix) and stays up across the batches of a bisect search; D
 existing cluster (``--scheduler tcp://host:8786``, or ``--scheduler-file PATH`` as written by a
 scheduler on an HPC cluster) or a ``distributed.LocalCluster`` it starts (``--scheduler local``).
 
-Workers never outlive the study (issue 22): a pool worker asks Linux to send it SIGKILL when its
+Workers never outlive the study: a pool worker asks Linux to send it SIGKILL when its
 parent dies (``prctl(PR_SET_PDEATHSIG)``) and, as a fallback on any platform, watches its parent's
 pid from a thread; an interrupted study (Ctrl-C, SIGTERM) terminates its workers at once rather
 than waiting for the rows in flight. A Dask client cancels its futures when interrupted; a client

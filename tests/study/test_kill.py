@@ -1,4 +1,4 @@
-"""A stopped study leaves nothing running (issue 22, item 1).
+"""A stopped study leaves nothing running.
 
 SIGTERM stops ``chiptwin study`` as Ctrl-C does (exit 143, one line, stored rows kept); SIGKILL
 kills the parent outright, and its pool workers follow it (``PR_SET_PDEATHSIG`` and the parent
