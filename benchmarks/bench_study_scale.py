@@ -21,6 +21,9 @@ worker processes) and each size (``--small`` and ``--rows``):
 - **marginal overhead**: the same between the two sizes, ``(wall_L − wall_S) × workers /
   (Σ wall_s_L − Σ wall_s_S) − 1``: what each further row costs beyond its own time, the
   workers' start (paid once) cancelled;
+- **client CPU per row**: this process's CPU time over the study, per row (unpickling,
+  storing, the summary; a LocalCluster's scheduler runs here too): on 2 cores it competes
+  with the workers, on a cluster it bounds the rows/s one client can take;
 - **client memory**: tracemalloc's peak of the study (this process; workers are other
   processes) and the process's peak RSS growth, per row, at both sizes: flat bookkeeping
   shows as equal bytes per row (the table itself, returned whole, is O(rows)); tracemalloc
@@ -108,8 +111,15 @@ def rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # Linux: KiB
 
 
+def cpu_s() -> float:
+    """This process's CPU seconds so far (every thread: the client, the pool's manager, and a
+    LocalCluster's scheduler, which runs in the client's process)."""
+    use = resource.getrusage(resource.RUSAGE_SELF)
+    return use.ru_utime + use.ru_stime
+
+
 def measure(path: Path, workers: int, scheduler: str | None) -> dict:
-    rss0 = rss_mb()
+    rss0, cpu0 = rss_mb(), cpu_s()
     tracemalloc.start()
     t0 = time.perf_counter()
     result = run_study(path, workers=workers, scheduler=scheduler)
@@ -120,7 +130,8 @@ def measure(path: Path, workers: int, scheduler: str | None) -> dict:
     row_s = sum(r["wall_s"] for r in result.table) / rows
     return {"table": result.table, "rows": rows, "wall_s": wall, "rows_per_s": rows / wall,
             "row_ms": 1e3 * row_s, "overhead": wall * workers / (row_s * rows) - 1,
-            "peak_mb": peak / 2**20, "rss_growth_mb": rss_mb() - rss0, "study": result.study}
+            "client_cpu_ms": 1e3 * (cpu_s() - cpu0) / rows, "peak_mb": peak / 2**20,
+            "rss_growth_mb": rss_mb() - rss0, "study": result.study}
 
 
 def sqlite_rates(folder: Path, study, table: list[dict], per_task: int) -> tuple[float, float]:
@@ -159,9 +170,9 @@ def main() -> None:
     import distributed  # noqa: F401  (the client's imports, not measured)
 
     run_study(study_file(folder, POINTS), workers=1)
-    print("| rows | executor | wall s | rows/s | row ms | overhead | "
+    print("| rows | executor | wall s | rows/s | row ms | overhead | client CPU ms/row | "
           "client peak MB | peak B/row | RSS growth MB |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     last, first = {}, {}
     for rows in (args.small, args.rows):
         path = study_file(folder, rows)
@@ -171,6 +182,7 @@ def main() -> None:
             last[name] = m
             print(f"| {m['rows']} | {name} | {m['wall_s']:.1f} s | {m['rows_per_s']:.0f} | "
                   f"{m['row_ms']:.2f} ms | {100 * m['overhead']:.1f} % | "
+                  f"{m['client_cpu_ms']:.3f} ms | "
                   f"{m['peak_mb']:.1f} MB | {2**20 * m['peak_mb'] / m['rows']:.0f} | "
                   f"{m['rss_growth_mb']:.0f} MB |", flush=True)
         assert same(last["pool"]["table"], last["dask"]["table"]), "pool and Dask tables differ"
