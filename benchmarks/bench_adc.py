@@ -1,4 +1,4 @@
-"""Benchmark: the cost of the converter as built against today's ideal converter (issue 17: ≤ 15 %).
+"""Benchmark: the cost of the converter as built against today's ideal converter (aim: ≤ 15 %).
 
 256 × 256 pixels, 13 bits (JSSC 2006), M = 4 reset and 4 signal samples per frame (8 conversions
 per pixel per frame). Both paths that convert: the multi-core sensor chain

@@ -5,10 +5,10 @@ run reads them at its 4,096 sites only, and computes them there (``moments_read_
 cell's coupling holds 34.6 million entries; its light is made 16 or more frames a product
 (``PHOTON_CHUNK_BYTES``). The baseline turns both off in the same process (moments at every
 pixel, the light a block of two frames at a time): the two paths run alternating, round by
-round, on one prepared scene, and must give the same sites' figures. Full: 8 flows of 10 s, 100 frames;
-``--quick``: a 64 × 64 corner with 256 sites, 8 flows of 4 s, 48 frames: a check that both
-paths run and agree, not a measure (a scene that small keeps every frame's moments for its
-replicates, and its coupling is dense).
+round, on one prepared scene, and must give the same sites' figures. Full: 8 flows of 12 s,
+116 frames; ``--quick``: a 64 × 64 corner with 256 sites, 8 flows of 4 s, 48 frames: a check
+that both paths run and agree, not a measure (a scene that small keeps every frame's moments
+for its replicates, and its coupling is dense).
 Usage: ``python benchmarks/bench_array_as_built.py [--quick] [--rounds 3]``.
 """
 
@@ -24,8 +24,9 @@ from chiptwin.config import load_scenario
 from chiptwin.twin import runner, scene
 from chiptwin.twin.runner import prepare, run_prepared
 
-FULL = ["assay.n_flows=8", "assay.flow_period_s=10.0", "run.duration_s=100.0"]
-QUICK = ["assay.n_flows=8", "assay.flow_period_s=4.0", "assay.start_s=16.0", "run.duration_s=48.0", "chip.rows=64", "chip.cols=64",
+FULL = ["assay.n_flows=8", "assay.flow_period_s=12.0", "run.duration_s=116.0"]
+QUICK = ["assay.n_flows=8", "assay.flow_period_s=4.0", "assay.start_s=16.0", "run.duration_s=48.0",
+         "chip.rows=64", "chip.cols=64",
          "chip.memory.capacity_bits=16777216",
          "sites.at_pixels=[" + ", ".join(f"[{r}, {c}]" for r in range(2, 64, 4)
                                         for c in range(2, 64, 4)) + "]"]
@@ -66,9 +67,9 @@ def main(argv: list[str] | None = None) -> int:
                 times[name].append(time.perf_counter() - t)
             sites[name] = [(x["signal_e"], x["snr_power"]) for x in result.summary["sites"]]
     same = sites["today"] == sites["before"]
-    print(f"pyro_array_256 as built ({'quick: 64 × 64, 48 frames' if a.quick else '8 flows, 100 frames'}"
-          f"), {s.chip.n_pixels} pixels, {len(sites['today'])} sites, {rounds} alternating "
-          f"round(s)")
+    size = "quick: 64 × 64, 48 frames" if a.quick else "8 flows of 12 s, 116 frames"
+    print(f"pyro_array_256 as built ({size}), {s.chip.n_pixels} pixels, "
+          f"{len(sites['today'])} sites, {rounds} alternating round(s)")
     for name in paths:
         print(f"  {name:7s} median {statistics.median(times[name]):.2f} s "
               f"(min {min(times[name]):.2f}, max {max(times[name]):.2f})")

@@ -1,5 +1,6 @@
-"""Cascade kinetics (issue 5): error vs solver tolerance vs wall time, wall time per flow, the
-cascade against the closed form, and the calibrated photon yield against REFERENCE §1.
+"""Cascade kinetics: error vs solver tolerance vs wall time, wall time per flow, the
+cascade against the closed form, and the calibrated photon yield against Ronaghi 2001
+(docs/background/sources.md K13).
 
 Usage: ``python benchmarks/bench_cascade.py [--quick] [--repeat 3] [--methods LSODA Radau BDF]``.
 ``--quick``: LSODA at rtol 1e-6 only, one repeat, the reference cases on 12 windows (not 50) and
@@ -140,7 +141,7 @@ def versus_closed_form() -> None:
 
 
 def calibrated_yield() -> None:
-    print("## Calibrated photon yield vs REFERENCE §1 (Ronaghi: ≈ 0.01 photon per base)\n")
+    print("## Calibrated photon yield vs Ronaghi 2001 (≈ 0.01 photon per base)\n")
     p = CascadeParams()
     # 1. fit luciferase and apyrase to the paper's eq. 19 light curve, from 3× / ÷3 off
     t = np.linspace(0.5, 100.0, 40)

@@ -14,8 +14,8 @@ figure measured elsewhere is written here); without APyTypes installed its colum
 gives no ratio. ``--quick``: 1e4 elements, 2 repeats, the same code path.
 
 The APyTypes side uses the test oracle ``tests/dsp/_dsp_apy.py`` for the routines (exact float
-conversion then ``cast``, REFERENCE §5) and builds its input arrays outside the timed region for
-the core operations.
+conversion then ``cast``, docs/background/sources.md F5) and builds its input arrays outside the
+timed region for the core operations.
 """
 
 from __future__ import annotations

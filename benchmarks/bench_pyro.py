@@ -1,7 +1,7 @@
 """pyro_1fmol end to end: the first run in a fresh process (numba compilation or cache load
 included) and warm runs, each in its own subprocess so "cold" is honest.
 
-Aim (issue 2): < 10 s cold, < 1 s warm. Usage: ``python benchmarks/bench_pyro.py [--quick]
+Aim: < 10 s cold, < 1 s warm. Usage: ``python benchmarks/bench_pyro.py [--quick]
 [--repeat 5]``. ``--quick``: the scene cut to 8 flows (500 frames), one warm run, and no cold
 child (compiling every kernel into an empty numba cache takes tens of seconds): the cached and
 warm rows only.

@@ -18,9 +18,9 @@ Build times of each block kind's bank (``rtl_ref.suite``), in fresh build direct
 Simulation: the kind's default config on ``--beats`` input beats (Verilator) and
 ``--icarus-beats`` (Icarus), full rate and with back-pressure (p_valid 0.9, p_ready 0.8); the
 wall time of the simulator process (file I/O included), and the fixed-point model on the same
-inputs for scale. The REFERENCE §6 anchors: a Verilator C++ testbench reading 1e6 vectors from a
-file builds in 0.15 s with ccache and simulates in 0.1–0.2 s; Icarus takes 16 s. Nothing here is
-asserted.
+inputs for scale. The anchors measured earlier (docs/background/sources.md A4): a Verilator C++
+testbench reading 1e6 vectors from a file builds in 0.15 s with ccache and simulates in 0.1–0.2 s;
+Icarus takes 16 s. Nothing here is asserted.
 """
 
 from __future__ import annotations

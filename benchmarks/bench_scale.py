@@ -1,4 +1,4 @@
-"""Benchmark: ``run()`` at chip scale (issue 13) against the fused ``sensor_chain``; its memory.
+"""Benchmark: ``run()`` at chip scale against the fused ``sensor_chain``; its memory.
 
 Three measurements, each warm (numba kernels compiled and cached first):
 

@@ -15,7 +15,7 @@ timed in interleaved rounds (this machine is shared and noisy; medians are repor
 (e) Pyxel 3.0.2 (``pyxel-sim``), exposure mode, warm, the same physics on the same scene (shot
     noise, QE, dark, full well, read noise, 12-bit ADC), when it can be run: in its own
     interpreter, given by ``--pyxel-python`` or ``$CHIPTWIN_PYXEL_PYTHON`` (a venv:
-    ``python -m venv /work/venvs/pyxel && /work/venvs/pyxel/bin/pip install pyxel-sim==3.0.2``;
+    ``python -m venv ~/venvs/pyxel && ~/venvs/pyxel/bin/pip install pyxel-sim==3.0.2``;
     its dependencies need not agree with ours), else this interpreter if it imports ``pyxel``.
     The worker stays up and runs once per round, between the other contenders' turns, so every
     ratio comes from runs side by side. Without Pyxel the table says so and prints no ratio.

@@ -141,7 +141,7 @@ def main() -> None:
     t0 = time.perf_counter()
     store = Store(folder / "results.sqlite", study)
     for r in result.table:
-        store.add(r)
+        store.add([r])  # one transaction a row, as the store wrote before tasks batched rows
     store.close()
     store_s = time.perf_counter() - t0
 

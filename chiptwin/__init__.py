@@ -83,7 +83,7 @@ def __dir__() -> list[str]:
     return sorted([*globals(), *_API])
 
 
-#: Modules that moved when the package was layered (issue 19): the old path still imports, with
+#: Modules that moved when the package was layered: the old path still imports, with
 #: a DeprecationWarning naming the new one. Nothing in chiptwin imports an old path.
 MOVED: dict[str, str] = {
     "chiptwin.run": "chiptwin.twin.runner",

@@ -7,7 +7,7 @@ Set ``NUMBA_DISABLE_JIT=1`` to run every kernel as plain Python (for coverage an
 **Where compiled kernels are cached.** In a source tree (an editable install, the tests) numba
 keeps its cache beside the sources, in ``__pycache__``, as usual. An installed package's folder
 is pip's, not ours: cache files written there outlive ``pip uninstall`` and leave a
-``chiptwin`` folder without ``__init__.py`` that shadows a later editable install (issue 11). So
+``chiptwin`` folder without ``__init__.py`` that shadows a later editable install. So
 an installed chiptwin caches in the user's cache folder, ``$XDG_CACHE_HOME/chiptwin/numba``
 (default ``~/.cache/chiptwin/numba``). ``NUMBA_CACHE_DIR``, when set, always wins.
 

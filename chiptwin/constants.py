@@ -22,7 +22,7 @@ C_LIGHT: float = 299_792_458.0
 """Speed of light in vacuum. Unit: m/s (exact)."""
 
 T_ROOM_K: float = 300.0
-"""Room temperature used by REFERENCE §4 for kTC noise. Unit: K."""
+"""Room temperature at which the kTC noise figures are quoted (sources.md P5). Unit: K."""
 
 ZERO_C_K: float = 273.15
 """0 °C in kelvin (the scenario's temperatures are in °C). Unit: K."""

@@ -1,4 +1,4 @@
-"""The ADC's two levels on the ladder and under ``auto`` (issue 17 item 5): the ideal converter is
+"""The ADC's two levels on the ladder and under ``auto``: the ideal converter is
 a cheaper level of the ADC when the scene's converter is not ideal, with its measured error, and
 ``auto`` takes it only within the budget."""
 

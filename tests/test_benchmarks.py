@@ -1,4 +1,4 @@
-"""Benchmarks that cannot rot (issue 22, item 4): every script in ``benchmarks/`` runs with
+"""Benchmarks that cannot rot: every script in ``benchmarks/`` runs with
 ``--quick`` (a small size, the same code path) in a process of its own, exits 0 and prints its
 figures. The process is forked from a server that has imported the scripts' libraries
 (:class:`_Forked`): the script runs as ``__main__`` as ``python SCRIPT --quick`` runs it,

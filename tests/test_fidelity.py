@@ -1,4 +1,4 @@
-"""``auto`` fidelity (issue 9): the level it picks keeps the run within the error budget of the
+"""``auto`` fidelity: the level it picks keeps the run within the error budget of the
 reference, its bounds are the physics they claim, and a scene where a cheap level is wrong gets
 the faithful one."""
 

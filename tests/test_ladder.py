@@ -1,5 +1,5 @@
 """The fidelity ladder measures each level's error against the reference; where the error is
-known analytically the ladder finds it (issue 9)."""
+known analytically the ladder finds it."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The house (issue 19): every package imports only from the layers below it, with no import
+"""The house: every package imports only from the layers below it, with no import
 circle, read from the code's own imports (``scripts/layers.py``, the map ``docs/architecture.md``
 draws); and the public API works from Python as on the command line."""
 

@@ -1,5 +1,5 @@
 """Where numba caches compiled kernels: beside the sources in a checkout, in the user's cache
-folder for an installed package, NUMBA_CACHE_DIR always first (issue 11; .ci/run checks the
+folder for an installed package, NUMBA_CACHE_DIR always first (.ci/run checks the
 installed case end to end in a fresh venv); and the command line saying so when kernels
 compile, once, and never when they load from the cache."""
 

@@ -1,6 +1,6 @@
 """EMVA 1288 characterisation: the chip's datasheet from the twin, and a twin from a datasheet.
 
-The chip on a camera test bench, as the standard (EMVA 1288 Release 4.0 Linear; REFERENCE §7)
+The chip on a camera test bench, as the standard (EMVA 1288 Release 4.0 Linear)
 measures a sensor::
 
     protocol ──► bench ──────────────► series ─────────► evaluation ──► datasheet ──► outputs

@@ -30,8 +30,8 @@ from chiptwin.dsp import reference
 from chiptwin.dsp.frame_ops import CmsConfig, cms_fixed
 from chiptwin.twin.stages import SensorModel
 
-#: Wavelength at which the twin's QE is given (schema: "qe at 560 nm"; REFERENCE §1: luciferase
-#: emission peaks at 562 nm). Unit: nm.
+#: Wavelength at which the twin's QE is given (schema: "qe at 560 nm"; Salama et al. 2004:
+#: luciferase emission peaks at 562 nm). Unit: nm.
 WAVELENGTH_NM: float = 560.0
 
 Progress = Callable[[int, int], None]

@@ -3,7 +3,7 @@ and the value the scenario's parameters imply, assembled from the evaluation
 (:mod:`chiptwin.characterize.evaluate`) of a :class:`~chiptwin.characterize.measure.Measurement`.
 
 The figures and their order follow the standard's summary datasheet (EMVA 1288 Release 4.0
-Linear; REFERENCE §7): sensitivity and noise (η, K, σ_d, SNR_max, μ_p.min, DR), dark current
+Linear): sensitivity and noise (η, K, σ_d, SNR_max, μ_p.min, DR), dark current
 (μ_I, T_d), nonuniformity (DSNU₁₂₈₈, PRNU₁₂₈₈), linearity (LE).
 """
 
@@ -242,7 +242,7 @@ def _notes(m: Measurement, bench: Bench, flags: dict[str, bool], sigma_y: Figure
         notes.append(
             f"QUANTISATION REGIME: the temporal dark noise σ_y.dark = {sigma_y.value:.3g} DN is "
             f"below {ev.QUANTISATION_REGIME_DN} DN; the ADC's rounding, not the pixel, sets the "
-            "noise floor, and K and σ_d are biased (EMVA 1288; REFERENCE §7). A finer ADC LSB "
+            "noise floor, and K and σ_d are biased (EMVA 1288 Release 4.0 Linear). A finer ADC LSB "
             "(more bits over the same range) or more gain moves the chip out of it.")
     if not flags["saturation_reached"]:
         notes.append("The temporal variance has no maximum inside the series: saturation is the "

@@ -1,6 +1,6 @@
 """The test bench's estimators: temporal statistics of a frame pair, spatial statistics of a stack.
 
-These are the sample statistics of EMVA 1288 Release 4.0 Linear (REFERENCE §7), written once and
+These are the sample statistics of EMVA 1288 Release 4.0 Linear, written once and
 used by the characterisation and by the pixel tests (``tests/pixel/test_pixel_noise_model.py``):
 
 * **Pair** (photon transfer): from two images ``A``, ``B`` of one exposure, the mean

@@ -1,4 +1,4 @@
-"""The evaluation of EMVA 1288 Release 4.0 Linear, from the standard's formulas (REFERENCE §7).
+"""The evaluation of EMVA 1288 Release 4.0 Linear, from the standard's formulas.
 
 The linear camera model: ``μ_y = μ_y.dark + K·η·μ_p`` and
 ``σ²_y = K²σ²_d + σ²_q + K(μ_y − μ_y.dark)``, with ``σ²_q = 1/12 DN²``. From the photon-transfer
@@ -6,7 +6,7 @@ series (exposure time varied at constant irradiance):
 
 * **saturation**: the exposure of the *global* maximum of the temporal variance ``σ²_y``
   (the standard's definition; the ``emva1288`` package takes the first local maximum seen from
-  the top, REFERENCE §7);
+  the top; docs/background/sources.md A5);
 * **system gain** ``K``: slope of ``σ²_y − σ²_y.dark`` against ``μ_y − μ_y.dark``, and
   **responsivity** ``R = Kη``: slope of ``μ_y − μ_y.dark`` against ``μ_p``, both regressions
   through the origin (the model has no offset once the dark values are subtracted; the reference
@@ -52,7 +52,8 @@ if TYPE_CHECKING:
 SIGMA2_Q: float = 1.0 / 12.0
 #: Below this σ²_y.dark the standard reports only an upper limit of σ_d. Unit: DN².
 QUANTISATION_FLOOR_DN2: float = 0.24
-#: Below this σ_y.dark the bench flags the quantisation regime (issue 12, REFERENCE §7). Unit: DN.
+#: Below this σ_y.dark the bench flags the quantisation regime (EMVA 1288 Release 4.0 Linear: below
+#: ≈ 0.5 DN K and σ_d are biased). Unit: DN.
 QUANTISATION_REGIME_DN: float = 0.5
 #: Fit range of K and R: up to this share of μ_y.sat − μ_y.dark (the standard's 70 %).
 SENSITIVITY_TOP: float = 0.70

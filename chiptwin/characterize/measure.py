@@ -1,5 +1,5 @@
 """The three measurement series of the protocol, run on the bench: photon transfer, spatial stacks,
-dark current against temperature (EMVA 1288 Release 4.0 Linear; REFERENCE §7).
+dark current against temperature (EMVA 1288 Release 4.0 Linear).
 
 Each series draws from its own named stream (``stage_rng(seed, "characterize.<series>")``), so
 changing one series never shifts another's numbers. The bench plans its exposures as an operator
@@ -28,7 +28,8 @@ from chiptwin.twin.scene import stage_rng
 #: the hottest, longest exposure of the temperature series (choice: the rest is for light / range).
 DARK_SHARE: float = 0.5
 
-#: Doubling temperature assumed only to plan the temperature series (REFERENCE §4). Unit: °C.
+#: Doubling temperature assumed only to plan the temperature series (Theuwissen, Harvest Imaging:
+#: 5–8 °C). Unit: °C.
 PLANNING_DOUBLING_C: float = 7.0
 
 

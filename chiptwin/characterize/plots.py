@@ -1,4 +1,4 @@
-"""The standard's plots of a datasheet (EMVA 1288 Release 4.0 Linear; REFERENCE §7): photon
+"""The standard's plots of a datasheet (EMVA 1288 Release 4.0 Linear): photon
 transfer, SNR with the ideal and the shot-noise limit, linearity and its deviation, dark signal
 against exposure time, DSNU and PRNU histograms, dark current against temperature.
 

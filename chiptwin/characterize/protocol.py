@@ -1,4 +1,4 @@
-"""The measurement protocol of EMVA 1288 Release 4.0 Linear, as the bench runs it (REFERENCE §7).
+"""The measurement protocol of EMVA 1288 Release 4.0 Linear, as the bench runs it.
 
 Three series, all under uniform illumination at the sensor plane (the ``flux`` assay kind's light)
 or in the dark, with the exposure *time* varied at constant irradiance:
@@ -27,7 +27,7 @@ from dataclasses import dataclass
 #: Fewest photon-transfer points the standard accepts.
 MIN_POINTS: int = 50
 
-#: Fewest images of a spatial stack (issue 12; the standard's L).
+#: Fewest images of a spatial stack (the standard's L).
 MIN_SPATIAL_FRAMES: int = 16
 
 

@@ -44,6 +44,14 @@ from chiptwin.config.catalog import (
     resolve_scenario,
     resolve_study,
 )
+from chiptwin.config.cost import (
+    IN_FLIGHT_PER_WORKER,
+    MAX_IN_FLIGHT,
+    MAX_ROWS_PER_TASK,
+    MAX_WORKER_TIMEOUT_S,
+    TASK_TARGET_S,
+    WORKER_TIMEOUT_S,
+)
 
 
 class UsageError(Exception):
@@ -128,8 +136,24 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--out", help="output folder (default: out/STUDY_NAME); an existing one "
                     "resumes the study")
     st.add_argument("--workers", type=int, help="local processes (default: every core)")
-    st.add_argument("--scheduler", help='a Dask scheduler address, or "local" for a Dask '
-                    "LocalCluster (needs the [dask] extra)")
+    dask = st.add_mutually_exclusive_group()
+    dask.add_argument("--scheduler", help='a Dask scheduler address, or "local" for a Dask '
+                      "LocalCluster (needs the [dask] extra)")
+    dask.add_argument("--scheduler-file", metavar="PATH",
+                      help="the JSON file a Dask scheduler writes on an HPC cluster (`dask "
+                           "scheduler --scheduler-file PATH`): run on that scheduler's workers")
+    st.add_argument("--worker-timeout", type=float, default=WORKER_TIMEOUT_S, metavar="S",
+                    help=f"seconds a Dask cluster may take to show its first worker before "
+                         f"the study gives up (default {WORKER_TIMEOUT_S:g}; in (0, "
+                         f"{MAX_WORKER_TIMEOUT_S:g}]: a batch queue may need hours)")
+    st.add_argument("--rows-per-task", type=int, metavar="N",
+                    help=f"rows an executor task runs (default: about {TASK_TARGET_S:g} s of "
+                         f"rows by the measured or estimated row time; in [1, "
+                         f"{MAX_ROWS_PER_TASK}]: a task's rows travel back in one message); "
+                         "the table does not depend on it")
+    st.add_argument("--in-flight", type=int, metavar="N",
+                    help=f"executor tasks out at once (default {IN_FLIGHT_PER_WORKER} per "
+                         f"worker; in [1, {MAX_IN_FLIGHT}]: each is a future the client holds)")
     st.add_argument("--fresh", action="store_true", help="discard stored rows and start over")
     st.add_argument("--quiet", action="store_true", help="no progress")
     return p
@@ -459,6 +483,17 @@ def _study(args: argparse.Namespace) -> int:
 
     if args.workers is not None and not 1 <= args.workers <= 1024:
         raise ScenarioError("chiptwin", "--workers", args.workers, "must be in [1, 1024]")
+    if args.rows_per_task is not None and not 1 <= args.rows_per_task <= MAX_ROWS_PER_TASK:
+        raise ScenarioError("chiptwin", "--rows-per-task", args.rows_per_task,
+                            f"must be in [1, {MAX_ROWS_PER_TASK}] (a task's rows travel back "
+                            "in one message and are lost together if it is interrupted)")
+    if args.in_flight is not None and not 1 <= args.in_flight <= MAX_IN_FLIGHT:
+        raise ScenarioError("chiptwin", "--in-flight", args.in_flight,
+                            f"must be in [1, {MAX_IN_FLIGHT}] (each task in flight is a future "
+                            "the client holds)")
+    if not 0 < args.worker_timeout <= MAX_WORKER_TIMEOUT_S:  # NaN too
+        raise ScenarioError("chiptwin", "--worker-timeout", args.worker_timeout,
+                            f"must be in (0, {MAX_WORKER_TIMEOUT_S:g}] seconds")
     study = load_study(_study_path(args.study), resolve_scenario)
     out = check_out_dir(args.out or Path("out") / study.name, marker=DB_NAME)
     with output_lock(out):
@@ -470,7 +505,10 @@ def _study(args: argparse.Namespace) -> int:
             with _working(progress):
                 result = run_study(study, workers=args.workers, scheduler=args.scheduler,
                                    db=out / DB_NAME, fresh=args.fresh, progress=progress,
-                                   announce=None if args.quiet else _announcer(progress))
+                                   announce=None if args.quiet else _announcer(progress),
+                                   task_rows=args.rows_per_task, in_flight=args.in_flight,
+                                   scheduler_file=args.scheduler_file,
+                                   worker_timeout_s=args.worker_timeout)
         except ScenarioError:  # refused before any row ran (scheduler, resumption): no trace
             if new:
                 shutil.rmtree(out, ignore_errors=True)

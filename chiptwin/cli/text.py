@@ -69,6 +69,8 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
         ("chiptwin study adc_bits_pyro", "fewest ADC bits for the assay; resumes if interrupted"),
         ("chiptwin study frame_memory --workers 2", "two local processes"),
         ("chiptwin study lod_pyro --scheduler tcp://head:8786", "on a Dask cluster"),
+        ("chiptwin study lod_pyro --scheduler-file ~/sched.json",
+         "on an HPC cluster's Dask scheduler"),
     ],
 }
 

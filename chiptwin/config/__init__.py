@@ -1,4 +1,4 @@
-"""Scenario files: TOML → frozen dataclasses, with strict validation (SPEC: "What users touch")."""
+"""Scenario files: TOML → frozen dataclasses, with strict validation."""
 
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.load import apply_override, load_scenario, scenario_from_dict

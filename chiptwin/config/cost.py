@@ -1,4 +1,4 @@
-"""How long a run would take and how much it would write, estimated before it starts (issue 22).
+"""How long a run would take and how much it would write, estimated before it starts.
 
 The estimate adds the stage costs the twin already knows from a scenario, each a count times a
 cost per unit (:func:`wall_estimate`, term by term):
@@ -159,6 +159,26 @@ ESTIMATE_FACTOR: float = 10.0
 #: Per worker of a study's process pool: spawn, import numpy/numba/chiptwin, load the kernels.
 #: Unit: s (the small study of tests/study: 40 rows on 2 workers, ≈ 4 s before the first row).
 WORKER_START_S: float = 4.0
+# A study's rows go to its workers in tasks (chiptwin.study.execute):
+#: Seconds of rows one task aims at. A task costs the Dask scheduler about a millisecond and the
+#: client one future and one message (the pool: one pickled message each way); at a few seconds
+#: a task that is under 0.1 % of its rows' time, while an interrupted study loses at most
+#: ``in_flight`` tasks of work and the study's last tasks end within seconds of each other.
+TASK_TARGET_S: float = 2.0
+#: Rows a task holds at most (``--rows-per-task``): its rows travel back in one message, and an
+#: interrupted task loses them all.
+MAX_ROWS_PER_TASK: int = 10_000
+#: Tasks out at once per worker: one running, one queued behind it, so a worker never waits
+#: for the client between two tasks.
+IN_FLIGHT_PER_WORKER: int = 2
+#: Tasks in flight at most (``--in-flight``): each is a future the client holds.
+MAX_IN_FLIGHT: int = 10_000
+#: Seconds a Dask cluster may take to show its first worker (``--worker-timeout``) by default:
+#: a local or running cluster has workers within seconds; a batch queue's may wait longer
+#: (raise it there).
+WORKER_TIMEOUT_S: float = 60.0
+#: ``--worker-timeout`` at most: a day, longer than any batch queue's wait worth sitting through.
+MAX_WORKER_TIMEOUT_S: float = 86_400.0
 #: Free disk kept beyond ``save_frames``' file (outputs, plots, the temporary folder). Unit: B.
 DISK_MARGIN_BYTES: int = 64 << 20
 

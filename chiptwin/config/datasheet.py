@@ -1,7 +1,8 @@
 """From a datasheet to a twin: an EMVA 1288 datasheet (the ``emva1288.json`` layout) → the
 ``[chip.pixel]`` and ``[chip.adc]`` values of a scenario (``from_datasheet = "FILE.json"``).
 
-The inverse of the datasheet's figures, through the twin's model (REFERENCE §4, §7):
+The inverse of the datasheet's figures, through the twin's model (El Gamal & Eltoukhy 2005; EMVA
+1288 Release 4.0 Linear):
 
 =========================  ===================================================================
 datasheet figure           scenario value

@@ -1,7 +1,7 @@
 """The scenario schema: one frozen dataclass per TOML section, units in the field names.
 
-Every default is documented with its source (REFERENCE.md section) or marked as a choice. The rule
-of each field (type, range, choices) sits beside it (:func:`chiptwin.config.fields.param`);
+Every default is documented with its source (docs/background/sources.md) or marked as a choice. The
+rule of each field (type, range, choices) sits beside it (:func:`chiptwin.config.fields.param`);
 cross-field rules live in :mod:`chiptwin.config.consistency`.
 """
 
@@ -68,7 +68,8 @@ class ScenarioMeta:
 
 @dataclass(frozen=True)
 class Assay:
-    """``[assay]``: the chemistry that makes light (Salama et al. 2004, eqs. 2–19; REFERENCE §1)."""
+    """``[assay]``: the chemistry that makes light (Salama et al. 2004, eqs. 2–19; sources.md
+    Kinetics)."""
 
     kind: str = param(choices=ASSAY_KINDS)
     start_s: float = param(0.0, lo=0.0, hi=T_MAX,
@@ -180,23 +181,23 @@ class Sites:
 
 
 EMITTER_LAWS = ("isotropic", "lambertian", "lambertian_na2")
-"""The emitter's angular law (issue 18): molecules in solution emit isotropically; a Lambertian
+"""The emitter's angular law: molecules in solution emit isotropically; a Lambertian
 emitter faces the diodes; ``lambertian_na2`` is the paper's NA² convention (Salama et al. 2004,
-§3.1), kept by name to reproduce its figures."""
+Sec. 3.1), kept by name to reproduce its figures."""
 
 INDEX_MIN, INDEX_MAX = 1.0, 4.5
-INDICES = "vacuum 1 … 4.5, above silicon's ≈ 4.1–4.3 at 470–560 nm (REFERENCE §2)"
+INDICES = "vacuum 1 … 4.5, above silicon's ≈ 4.1–4.3 at 470–560 nm (textbook; sources.md O11)"
 
 
 @dataclass(frozen=True)
 class FaceplateSection:
     """``[optics.faceplate]``: a fibre-optic faceplate between the assay and the diodes (the JSSC
-    2006 chip's assays sit on one, REFERENCE §2–3). ``na = 0``: none."""
+    2006 chip's assays sit on one, Eltoukhy et al. 2006). ``na = 0``: none."""
 
     na: float = param(
         0.0, lo=0.0, hi=2.0,
         doc="numerical aperture in air; 0 = no faceplate; makers' datasheets 0.35 … 1.0 "
-            "(REFERENCE §2); ≤ 2, above any glass core's index")
+            "(sources.md O16); ≤ 2, above any glass core's index")
     fiber_pitch_um: float = param(
         6.0, lo=LENGTH_MIN_UM, hi=1.0e3,
         doc="µm between fibre centres, the blur of the light carried down; imaging faceplates "
@@ -273,7 +274,8 @@ class TopSection:
 
 @dataclass(frozen=True)
 class Optics:
-    """``[optics]``: how emitted light reaches the diodes (REFERENCE §2).
+    """``[optics]``: how emitted light reaches the diodes (Salama et al. 2004, Sec. 3; sources.md
+    Optics).
 
     ``emitter`` names the angular law; ``convention`` is its older name, kept as an alias (a file
     may set either; both, only if they agree). ``layers`` is the planar stack from the site down
@@ -308,8 +310,8 @@ class Optics:
     band_fwhm_nm: float = param(
         70.0, lo=1.0, hi=300.0,
         doc="nm; the emission band's full width at half maximum (Gaussian), over which thin "
-            "films' interference is averaged; 70 nm assumed for firefly luciferase (not in "
-            "REFERENCE); 1 nm (a line) … 300 nm")
+            "films' interference is averaged; 70 nm assumed for firefly luciferase (not "
+            "published; a choice); 1 nm (a line) … 300 nm")
     thin_film_um: float = param(
         2.0, lo=0.0, hi=10.0,
         doc="µm; inner layers this thin or thinner are thin films: their multiple reflections "
@@ -360,24 +362,26 @@ class Optics:
 
 @dataclass(frozen=True)
 class Pixel:
-    """``[chip.pixel]``: photodiode and readout (REFERENCE §3–4; most defaults are choices)."""
+    """``[chip.pixel]``: photodiode and readout (Eltoukhy et al. 2006; El Gamal & Eltoukhy 2005;
+    most defaults are choices)."""
 
     diode_w_um: float = param(100.0, lo=LENGTH_MIN_UM, hi=LENGTH_MAX_UM,
                               doc="µm; paper's 100 µm diode; " + LENGTHS)
     diode_h_um: float = param(100.0, lo=LENGTH_MIN_UM, hi=LENGTH_MAX_UM,
                               doc="µm; paper's 100 µm diode; " + LENGTHS)
-    qe: float = param(0.4, lo=0.0, hi=1.0, lo_open=True, doc="at 560 nm; REFERENCE §4: 0.3–0.6")
+    qe: float = param(0.4, lo=0.0, hi=1.0, lo_open=True, doc="at 560 nm; typically 0.3–0.6")
     dark_current_nA_per_cm2: float = param(
         0.05, lo=0.0, hi=1.0e4,
         doc="at ref_temp_C; low-dark-current diodes: tens of pA/cm² (choice); ≤ 10 µA/cm², a "
-            "thousand times a plain n-well's 0.1–10 nA/cm² (REFERENCE §4)"
+            "thousand times a plain n-well's 0.1–10 nA/cm² (sources.md P8)"
     )
     ref_temp_C: float = param(25.0, lo=TEMP_MIN_C, hi=TEMP_MAX_C, doc=TEMPS)
     temperature_C: float = param(25.0, lo=TEMP_MIN_C, hi=TEMP_MAX_C,
                                  doc="room temperature by default; " + TEMPS)
     dark_doubling_C: float = param(
         7.0, lo=1.0, hi=50.0,
-        doc="°C per doubling; 5–8 measured (REFERENCE §4); 1 … 50 covers any silicon diode")
+        doc="°C per doubling; 5–8 measured (Theuwissen, Harvest Imaging); 1 … 50 covers "
+            "any silicon diode")
     capacitance_fF: float = param(
         1000.0, lo=0.1, hi=1.0e7,
         doc="fF; ≈1 pF for 100 µm n-well; 0.1 fF (below the ≈1 fF node of the smallest pixels) "
@@ -396,7 +400,7 @@ class Pixel:
                               doc="V; output at zero charge, keeps noise in range; " + VOLTS)
 
 
-#: ``[chip.adc]`` keys of the converter as built (issue 17), each 0 / off for the ideal ADC.
+#: ``[chip.adc]`` keys of the converter as built, each 0 / off for the ideal ADC.
 ADC_EFFECTS = ("comparator_noise_lsb", "comparator_noise_uV", "inl_max_lsb", "inl_shape",
                "inl_table", "dnl_rms_lsb", "offset_sigma_lsb", "gain_sigma")
 
@@ -423,12 +427,12 @@ class Adc:
     comparator_noise_lsb: float = param(
         0.0, lo=0.0, hi=256.0,
         doc="LSB rms, input-referred comparator/ramp noise, a fresh draw per conversion; "
-            "typical a few tenths to 1 LSB (issue 17); ≤ 256 LSB: beyond, 8 of the bits are "
+            "typical a few tenths to 1 LSB; ≤ 256 LSB: beyond, 8 of the bits are "
             "noise and the converter is a noise source, not an ADC")
     inl_max_lsb: float = param(
         0.0, lo=-1024.0, hi=1024.0,
         doc="LSB, signed peak of the ramp's bow (end-point INL), shared by the converters on a "
-            "ramp; single-slope ramps: a few LSB (REFERENCE §8); ±1024 LSB, an eighth of a "
+            "ramp; single-slope ramps: a few LSB (textbook); ±1024 LSB, an eighth of a "
             "13-bit range (a steeper bow reverses transitions and is refused for the bits)")
     inl_shape: str = param("quadratic", choices=("quadratic", "cubic", "table"),
                            doc="the bow 4u(1−u), the S-curve u(1−u)(1−2u), or inl_table")
@@ -457,7 +461,7 @@ class Adc:
     fom_schreier_db: float = param(
         165.7, lo=130.0, hi=190.0,
         doc="dB, Schreier figure of merit SNDR + 10 log10(f_s / 2 / P) for the converter's "
-            "power and energy (ADC Performance Survey 1997–2025, REFERENCE §8: median of the "
+            "power and energy (Murmann, ADC Performance Survey 1997–2025: median of the "
             "ENOB 12–14 designs 165.7 dB, best of all 189.2 dB); 130–190 dB spans the survey")
 
     @property
@@ -483,7 +487,8 @@ class Adc:
     def energy_per_conversion_J(self) -> float:
         """Energy of one conversion from the Schreier figure of merit at the ideal SNDR of the
         bits, 6.02 N + 1.76 dB: FOM_S = SNDR + 10 log10(f_s / 2 / P) gives
-        P / f_s = 1 / (2 · 10^((FOM_S − SNDR)/10)). Unit: J (REFERENCE §8)."""
+        P / f_s = 1 / (2 · 10^((FOM_S − SNDR)/10)). Unit: J (Murmann's ADC survey; sources.md
+        D5)."""
         sndr_db = 6.02 * self.bits + 1.76
         return 0.5 * 10.0 ** (-(self.fom_schreier_db - sndr_db) / 10.0)
 
@@ -535,7 +540,8 @@ class Dsp:
             "needs more than 8 taps, any wider passes everything")
     wiener_noise_to_signal: float = param(
         0.01, lo=0.0, hi=1.0e6,
-        doc="λ = σ_n²/σ_s² of the wiener equalizer (paper §3.3); 0 = zero forcing; 0.01 "
+        doc="λ = σ_n²/σ_s² of the wiener equalizer (Salama et al. 2004, Sec. 3.3); 0 = zero "
+            "forcing; 0.01 "
             "(choice) for a site SNR of 20 dB; ≤ 1e6, where the equalizer passes nothing")
     wiener_coef_bits: int = param(
         18, kind=int, lo=4, hi=32,
@@ -598,7 +604,7 @@ class Chip:
 
 @dataclass(frozen=True)
 class Fidelity:
-    """``[run.fidelity]``: the level of each stage (SPEC: the fidelity ladder).
+    """``[run.fidelity]``: the level of each stage (the fidelity ladder).
 
     ``"auto"`` picks the cheapest level whose error on the scene stays within ``[run]
     error_budget`` (:mod:`chiptwin.fidelity.auto`).

@@ -1,4 +1,4 @@
-"""Detection: per-site statistics of the DSP's results (SPEC "detection").
+"""Detection: per-site statistics of the DSP's results.
 
 * :mod:`.statistics`: SNR as a power ratio (paper eq. 22) and as an amplitude ratio, window
   sums with the coherent noise of a shared dark reference, the signal a target SNR needs.

@@ -173,8 +173,10 @@ def local_inflation(y: np.ndarray, signal: np.ndarray, noise: FlowNoise,
     say so, and the posterior widens by as much."""
     z2 = (y - signal) ** 2 / noise.var(signal)
     kernel = np.ones(2 * half + 1)
-    num = np.convolve(z2, kernel, mode="same")
-    den = np.convolve(np.ones_like(z2), kernel, mode="same")
+    # the full convolution's centred part: NumPy's mode="same" is as long as the longer input,
+    # the kernel's 17 flows for a read shorter than it
+    num = np.convolve(z2, kernel)[half:half + z2.size]
+    den = np.convolve(np.ones_like(z2), kernel)[half:half + z2.size]
     return np.maximum(1.0, num / den)
 
 

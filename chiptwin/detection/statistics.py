@@ -1,7 +1,7 @@
 """Detection: from DSP outputs to per-site signal, noise, SNR, decisions and base calls.
 
 SNR follows the paper: SNR = Q²/σ² (Salama et al. 2004, eq. 22) is a POWER ratio; its square root,
-the amplitude ratio, is reported beside it and always labelled (REFERENCE §4).
+the amplitude ratio, is reported beside it and always labelled (Salama et al. 2004, eq. 22).
 """
 
 from __future__ import annotations
@@ -50,8 +50,8 @@ def window_sums(
     * matched filter for light decaying as exp(−k t) from the window's start (pyrosequencing,
       eq. 19): ``w_j = exp(−k (t_j − t_0))``, ``c = Σw / Σw²``. It is the least-squares amplitude
       ``Σ w y / Σ w²`` scaled back to a window total, unbiased for that decay, and weights the
-      bright outputs where the sum weights the dim tail equally (REFERENCE §1: 61 % of a flow's
-      light comes after its first 10 s).
+      bright outputs where the sum weights the dim tail equally (Salama et al. 2004, eq. 19: 61 % of
+      a flow's light comes after its first 10 s).
 
     Independent variances add with weights ``(N c w_j)²``; the dark reference is common to every
     output, so its variance adds coherently, ``(N c Σ w_j)²``.

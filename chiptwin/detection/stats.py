@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -29,6 +30,13 @@ def _stats():
     from scipy import stats
 
     return stats
+
+
+@lru_cache(maxsize=4096)
+def _t(q: float, df: float) -> float:
+    """Student-t quantile, remembered: a study asks for the same few (level, n) at every point
+    and look, and scipy's ppf costs ≈ 0.2 ms a call."""
+    return float(_stats().t.ppf(q, df))
 
 
 @dataclass(frozen=True)
@@ -134,8 +142,7 @@ def rate_estimate(k: np.ndarray, n: np.ndarray, confidence: float) -> Estimate:
     for tail in (alpha / 2, alpha):  # two-sided, then one-sided
         n_eff = nn
         if deff > 1.0:
-            t = _stats().t.ppf
-            n_eff = min(nn / deff * (t(1 - tail, nn - 1) / t(1 - tail, runs - 1)) ** 2, nn)
+            n_eff = min(nn / deff * (_t(1 - tail, nn - 1) / _t(1 - tail, runs - 1)) ** 2, nn)
         k_eff = p * n_eff
         lo = 0.0 if kk == 0 else float(_stats().beta.ppf(tail, k_eff, n_eff - k_eff + 1))
         hi = 1.0 if kk == nn else float(_stats().beta.ppf(1 - tail, k_eff + 1, n_eff - k_eff))
@@ -152,8 +159,8 @@ def mean_estimate(x: np.ndarray, confidence: float) -> Estimate:
     if n < 2:
         return Estimate(mean, -math.inf, math.inf, -math.inf, math.inf, n, "t (n < 2: none)")
     se = float(np.std(x, ddof=1)) / math.sqrt(n)
-    t2 = float(_stats().t.ppf(0.5 + confidence / 2, n - 1)) * se
-    t1 = float(_stats().t.ppf(confidence, n - 1)) * se
+    t2 = _t(0.5 + confidence / 2, n - 1) * se
+    t1 = _t(confidence, n - 1) * se
     return Estimate(mean, mean - t2, mean + t2, mean - t1, mean + t1, n, "Student t")
 
 
@@ -178,8 +185,8 @@ def loss_db_interval(x: np.ndarray, ref: np.ndarray, confidence: float) -> Estim
         return Estimate(value, -math.inf, math.inf, -math.inf, math.inf, n, "delta method t")
     var = np.var(x, ddof=1) / (len(x) * mx**2) + np.var(ref, ddof=1) / (len(ref) * mr**2)
     se_db = 10 / math.log(10) * math.sqrt(var)
-    t2 = float(_stats().t.ppf(0.5 + confidence / 2, n - 1)) * se_db
-    t1 = float(_stats().t.ppf(confidence, n - 1)) * se_db
+    t2 = _t(0.5 + confidence / 2, n - 1) * se_db
+    t1 = _t(confidence, n - 1) * se_db
     return Estimate(value, value - t2, value + t2, value - t1, value + t1, n, "delta method t")
 
 
@@ -198,3 +205,39 @@ def looks_confidence(confidence: float, looks: int) -> float:
     """Per-look level that keeps ``looks`` sequential looks at ``confidence`` overall
     (Bonferroni: conservative, valid whatever the stopping rule)."""
     return 1.0 - (1.0 - confidence) / max(looks, 1)
+
+
+#: Share of the error rate ``α = 1 − confidence`` that a grid stopping early spends on its interim
+#: looks (all but the last); the last look, at the cap, keeps the rest. See :func:`look_levels`.
+INTERIM_ALPHA_SHARE = 0.1
+
+
+def look_levels(confidence: float, looks: int) -> tuple[float, ...]:
+    """Per-look confidence of a sequential test that may stop at any of ``looks`` looks, with
+    ``confidence`` overall: Haybittle–Peto's shape (strict interim looks, the last near the
+    fixed design's level), made exact by Bonferroni.
+
+    With ``α = 1 − confidence`` and ``s =`` :data:`INTERIM_ALPHA_SHARE`, look ``k < K`` is taken at
+    ``1 − sα/(K − 1)`` and the last at ``1 − (1 − s)α``; one look is taken at ``confidence``.
+    The spends add to α, so whatever the stopping rule and however correlated the looks (they
+    share rows): a wrong decision at the look where a point stops is a bound on the wrong side
+    of the true value at that look, of probability ≤ that look's spend, and the union over the
+    looks is ≤ α. At 95 % in 9 looks: 99.94 % at each of 8 interim looks (z ≈ 3.2, as
+    Haybittle's and Peto's "p < 0.001 before the end": Haybittle, Br. J. Radiol. 44:793, 1971;
+    Peto et al., Br. J. Cancer 34:585, 1976) and 95.5 % at the cap, where an even split
+    (:func:`looks_confidence`) takes 99.44 % at every look: a grid point decided at the cap by
+    the one-look design then stays decided unless its bound lies within the 95 → 95.5 %
+    quantile step of its threshold (3 % of a t bound's width at 89 degrees of freedom), while
+    under the even split a rate with no event in 3,240 trials bounds at 1.6e-3 instead of 9.2e-4.
+    """
+    if looks <= 1:
+        return (confidence,)
+    alpha = 1.0 - confidence
+    interim = 1.0 - INTERIM_ALPHA_SHARE * alpha / (looks - 1)
+    return (interim,) * (looks - 1) + (1.0 - (1.0 - INTERIM_ALPHA_SHARE) * alpha,)
+
+
+def look_sizes(cap: int, batch: int) -> tuple[int, ...]:
+    """Replicates at each sequential look: ``batch``, ``2·batch``, … up to ``cap`` (the last look
+    at ``cap`` even when ``batch`` does not divide it)."""
+    return tuple(min(n, cap) for n in range(batch, cap + batch, batch))

@@ -4,7 +4,8 @@ The chain the chip model runs (:mod:`chiptwin.dsp.pipeline`): CMS of each frame 
 reference (mean of K CMS frames) → background subtraction → N-frame averaging. Each step keeps
 the fractional bits its division creates, so with M, K and N powers of two the whole chain is
 exact (no rounding anywhere); otherwise each step rounds once, RND_CONV, at its output.
-Every register is signed from the CMS output on; widths follow REFERENCE §5 word growth.
+Every register is signed from the CMS output on; widths follow fixed-point word growth
+(docs/background/sources.md F4).
 
 A count whose registers no 64-bit DSP holds raises :class:`FormatLimit` (a ``ValueError``) that
 names the ``[chip.dsp]`` key, its value and the largest values that fit, so that validation

@@ -4,8 +4,8 @@ Formats, modes and word growth are in :mod:`chiptwin.dsp.fmt` (re-exported here)
 ``int64`` arrays; each public function validates dtype and range once and calls a numba kernel
 (:mod:`chiptwin.dsp._kernels`); the ``_private`` twins skip the validation for codes the routines
 produced themselves. Every operation that can overflow adds its saturation and wrap events to an
-optional :class:`OverflowCounter`; ``uint64`` input is refused (REFERENCE §5: it turns into
-float64 in numba).
+optional :class:`OverflowCounter`; ``uint64`` input is refused (mixed with int64 it
+turns into float64 in numba).
 """
 
 from __future__ import annotations
@@ -81,7 +81,8 @@ def as_codes(codes: np.ndarray | int, fmt: Fmt, name: str = "codes") -> np.ndarr
     """
     arr = np.asarray(codes)
     if arr.dtype == np.uint64:
-        raise TypeError(f"{name}: uint64 codes are refused; pass int64 (REFERENCE §5)")
+        raise TypeError(f"{name}: uint64 codes are refused; pass int64 (numba turns "
+                        "uint64 mixed with int64 into float64)")
     if arr.dtype.kind not in "iub":
         raise TypeError(f"{name}: codes must be integers, got dtype {arr.dtype}")
     arr = _contiguous(arr, np.int64)

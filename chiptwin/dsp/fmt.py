@@ -1,8 +1,8 @@
 """Fixed-point formats and their algebra: modes, :class:`Fmt`, word growth, exact rationals.
 
 A value is an ``int64`` *code* ``c`` in a format :class:`Fmt` ``(signed, word_bits, frac_bits)``;
-it stands for ``c · 2^-frac_bits``. Semantics follow REFERENCE §5 (SystemC / HLS ``ap_fixed`` /
-APyTypes names):
+it stands for ``c · 2^-frac_bits``. Semantics follow the fixed-point conventions
+(names as in SystemC / HLS ``ap_fixed`` / APyTypes; docs/background/sources.md F1–F3):
 
 rounding (applied first)
     ``TRN`` floor · ``TRN_ZERO`` toward zero · ``RND`` nearest, ties → +∞ · ``RND_ZERO`` nearest,

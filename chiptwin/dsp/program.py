@@ -131,7 +131,8 @@ def bin_factor(chip: Chip) -> int:
 
 @dataclass(frozen=True)
 class ProgramFormats:
-    """Register formats of a program's stages, each fed the one before (REFERENCE §5 growth).
+    """Register formats of a program's stages, each fed the one before (fixed-point word growth,
+    sources.md F4).
 
     ``front`` is the chain of cms / dark / background / average (``average.n = 1`` with
     kinetics, so its output is the background-subtracted frame). ``kinetics_out`` is declared,

@@ -29,8 +29,8 @@ def subtract_background(frames: np.ndarray, dark: np.ndarray) -> np.ndarray:
 def correlated_multiple_sampling(reset: np.ndarray, signal: np.ndarray) -> np.ndarray:
     """Correlated multiple sampling: mean of M signal samples minus mean of M reset samples.
 
-    White read noise falls as 1/√M (REFERENCE §4); the kTC noise shared by reset and signal samples
-    of one frame cancels (true CDS).
+    White read noise falls as 1/√M (correlated multiple sampling; sources.md P10); the kTC noise
+    shared by reset and signal samples of one frame cancels (true CDS).
 
     Parameters
     ----------
@@ -67,7 +67,7 @@ def average_frames(frames: np.ndarray, n: int) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------------------------
-# Float references of the routines added with the bit-accurate DSP (issue 3). Same conventions:
+# Float references of the routines added with the bit-accurate DSP. Same conventions:
 # frames (n_frames, n_pixels), values in LSB, float64 out.
 # ---------------------------------------------------------------------------------------------
 
@@ -202,7 +202,7 @@ def fir_filter(frames: np.ndarray, h: np.ndarray) -> np.ndarray:
 
 
 def wiener_matrix(coupling: np.ndarray, noise_to_signal: float) -> np.ndarray:
-    """Wiener (linear MMSE) equalizer of optical cross-talk (paper §3.3).
+    """Wiener (linear MMSE) equalizer of optical cross-talk (Salama et al. 2004, Sec. 3.3).
 
     Model: ``pixel = C @ site + noise`` with ``C`` the coupling matrix (n_pixels × n_sites), site
     signals uncorrelated with prior variance σ_s², pixel noise white with variance σ_n². The

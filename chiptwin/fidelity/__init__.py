@@ -1,5 +1,5 @@
-"""Speed against error: ``auto``'s calibrations and the fidelity ladder (SPEC "Speed against
-error"), the tools over the twin that run it at several levels.
+"""Speed against error: ``auto``'s calibrations and the fidelity ladder
+(docs/background/speed-and-error.md), the tools over the twin that run it at several levels.
 
 * :mod:`.auto`: :func:`resolve` (a scenario's ``auto`` keys, calibrating what the estimates
   cache lacks) and :func:`run` (the twin's run with ``auto`` so resolved: ``chiptwin.run``).

@@ -1,5 +1,5 @@
-"""The fidelity ladder of a scene: what each level costs and how wrong it is (SPEC: "Speed
-against error").
+"""The fidelity ladder of a scene: what each level costs and how wrong it is
+(docs/background/speed-and-error.md).
 
 The reference is the most faithful combination the scene allows (kinetics ``cascade`` for
 pyrosequencing, photons ``events``, optics ``psf`` for contact imaging, DSP ``rtl`` when
@@ -100,7 +100,7 @@ class HardCase:
     why: str
 
 
-#: The hard cases of issue 9, each a bundled scenario with a few keys changed.
+#: The hard cases for ``auto``, each a bundled scenario with a few keys changed.
 HARD_CASES: dict[str, HardCase] = {
     "dim_shot": HardCase(
         "ccd_100fmol", ("assay.n_flows=8", "run.duration_s=496.0",

@@ -7,7 +7,7 @@ sources (:mod:`~chiptwin.kinetics.sources`) of one common shape, the :class:`Pul
 integral. Pyrosequencing's dispensation program, key normalisation and base calling live in
 :mod:`~chiptwin.kinetics.pyro`.
 
-Level ``cascade`` (issue 5): the multi-enzyme pyrosequencing cascade as a stiff ODE
+Level ``cascade`` (Agah et al. 2004): the multi-enzyme pyrosequencing cascade as a stiff ODE
 (:mod:`~chiptwin.kinetics.cascade`, constants in :mod:`~chiptwin.kinetics.cascade_params`,
 phasing in :mod:`~chiptwin.kinetics.phasing`, calibration in :mod:`~chiptwin.kinetics.calibrate`)
 and the reversible mass-action reaction of eqs. 2–4 (:mod:`~chiptwin.kinetics.reversible`). These

@@ -1,12 +1,13 @@
 """Calibrating the cascade: fit its free constants to a light curve or to a measured photon yield.
 
-The literature fixes the enzymes' Michaelis constants and turnover numbers (REFERENCE §1); what an
-assay leaves free is mostly *how much* of each enzyme is in the well. Two targets:
+The literature fixes the enzymes' Michaelis constants and turnover numbers
+(docs/background/sources.md K17–K22); what an assay leaves free is mostly *how much* of each
+enzyme is in the well. Two targets:
 
 * a light curve (photons/s at given times after one dispensation): :func:`fit_light_curve`,
   non-linear least squares (``scipy.optimize.least_squares``) on the logarithms of the chosen
   :class:`~chiptwin.kinetics.cascade_params.CascadeParams` fields;
-* a photon yield (photons per incorporated base, e.g. Ronaghi's ≈ 0.01, REFERENCE §1):
+* a photon yield (photons per incorporated base, e.g. Ronaghi 2001's ≈ 0.01):
   :func:`fit_photon_yield`, a bracketed root (``scipy.optimize.brentq``) on one field.
 
 Both return a :class:`CalibrationResult` with the fitted values and the fit residual.
@@ -29,7 +30,7 @@ from chiptwin.kinetics.cascade import cascade_pyrosequencing
 from chiptwin.kinetics.cascade_params import CascadeParams
 
 DEFAULT_DNA_MOL: float = 1e-15
-"""Template amount of the calibration runs: 1 fmol, the headline scenario's (REFERENCE §1)."""
+"""Template amount of the calibration runs: 1 fmol, the headline scenario's (pyro_1fmol)."""
 
 _DECAYED = 1e-12  # light left (share of the template amount in PPi + ATP) when the yield is read
 

@@ -1,7 +1,7 @@
 """Kinetics level ``cascade``: the pyrosequencing enzyme cascade as a stiff ODE, as a light source.
 
-Per site, the four enzymes of REFERENCE §1 (Agah et al., Nucleic Acids Res. 32:e166, 2004),
-Michaelis–Menten for each, with the constants of :class:`~chiptwin.kinetics.cascade_params.
+Per site, the four enzymes of the multi-enzyme model (Agah et al., Nucleic Acids Res. 32:e166,
+2004), Michaelis–Menten for each, with the constants of :class:`~chiptwin.kinetics.cascade_params.
 CascadeParams`::
 
     d[D_j]/dt   = v_pol,j−1 − v_pol,j            v_pol,j = k_pol θ [D_j] [N_j] / (K_d + [N_j])

@@ -1,6 +1,6 @@
 """Constants of the pyrosequencing enzyme cascade: one frozen dataclass, units in the field names.
 
-The cascade (REFERENCE §1, "cascade"; Agah et al., Nucleic Acids Res. 32:e166, 2004, "a
+The cascade (Ronaghi, Genome Res. 11, 2001; Agah et al., Nucleic Acids Res. 32:e166, 2004, "a
 multi-enzyme model for pyrosequencing": Michaelis–Menten kinetics for all four enzymes)::
 
     polymerase   DNA_n + dNTP        → DNA_n+1 + PPi
@@ -8,9 +8,10 @@ multi-enzyme model for pyrosequencing": Michaelis–Menten kinetics for all four
     luciferase   ATP + luciferin     → AMP + PPi + oxyluciferin + hν   (α photons per turnover)
     apyrase      ATP, dNTP           → NDP → NMP + Pi
 
-Every constant below carries its source. ``[REF §1]`` marks a number from REFERENCE.md §1;
-``[lit]`` a published value that REFERENCE does not list (named, not verified here); ``[choice]``
-a documented choice of this twin. Enzyme *amounts* are assay recipe choices: the defaults are
+Every constant below carries its source. ``[lit]`` marks a published value, with the paper
+named beside it (tabulated in docs/background/sources.md, Kinetics; the K_d(DNA) of Kuchta et al.
+is named but not verified here); ``[choice]`` a documented choice of this twin. Enzyme
+*amounts* are assay recipe choices: the defaults are
 set so that, in the linear regime (every substrate far below its K_m), the cascade reduces to the
 paper's pyrosequencing model, eqs. 18–19, with k_t = 1 s⁻¹ and k_a = 0.05 s⁻¹
 (:meth:`CascadeParams.from_closed_form` does the same for any k_t, k_a, α).
@@ -35,44 +36,45 @@ from chiptwin.kinetics.closed_form import (
     PYRO_TURNOVER_PER_S,
 )
 
-# --- literature constants (REFERENCE §1 unless marked) ----------------------------------------
+# --- literature constants (docs/background/sources.md, Kinetics K17–K22) ------------------------
 
 LUCIFERASE_KM_ATP_FLASH_M: float = 110e-6
-"""Luciferase K_m(ATP), flash site (DeLuca & McElroy 1984) [REF §1]. Unit: M."""
+"""Luciferase K_m(ATP), flash site (DeLuca & McElroy 1984) [lit]. Unit: M."""
 
 LUCIFERASE_KM_ATP_GLOW_M: float = 20e-6
-"""Luciferase K_m(ATP), glow site (DeLuca & McElroy 1984) [REF §1]. Unit: M."""
+"""Luciferase K_m(ATP), glow site (DeLuca & McElroy 1984) [lit]. Unit: M."""
 
 LUCIFERASE_KM_LUCIFERIN_M: float = 15e-6
-"""Luciferase K_m(luciferin) [REF §1]. Unit: M."""
+"""Luciferase K_m(luciferin) [lit; listed with the K_i values of Ribeiro & Esteves da Silva 2008,
+the primary source not traced here: sources.md K18]. Unit: M."""
 
 LUCIFERASE_KI_LAMP_M: float = 3.8e-9
 """Inhibition constant of dehydroluciferyl-AMP (L-AMP) (Ribeiro & Esteves da Silva 2008)
-[REF §1]. Unit: M."""
+[lit]. Unit: M."""
 
 LUCIFERASE_KI_OXYLUCIFERIN_M: float = 0.5e-6
-"""Inhibition constant of oxyluciferin (Ribeiro & Esteves da Silva 2008) [REF §1]. Unit: M."""
+"""Inhibition constant of oxyluciferin (Ribeiro & Esteves da Silva 2008) [lit]. Unit: M."""
 
 SULFURYLASE_KM_APS_M: float = 39e-6
-"""ATP sulfurylase K_m(APS), ATP-forming direction (rat; Biochem J 301, 1994) [REF §1]. Unit: M."""
+"""ATP sulfurylase K_m(APS), ATP-forming direction (rat; Biochem J 301, 1994) [lit]. Unit: M."""
 
 SULFURYLASE_KM_PPI_M: float = 18e-6
-"""ATP sulfurylase K_m(PPi), ATP-forming direction (rat; Biochem J 301, 1994) [REF §1]. Unit: M."""
+"""ATP sulfurylase K_m(PPi), ATP-forming direction (rat; Biochem J 301, 1994) [lit]. Unit: M."""
 
 SULFURYLASE_KCAT_PER_S: float = 6.7
-"""ATP sulfurylase turnover, lower bound (Penicillium) [REF §1]. Unit: 1/s."""
+"""ATP sulfurylase turnover, lower bound (Penicillium) [lit]. Unit: 1/s."""
 
 POLYMERASE_KPOL_PER_S: float = 63.0
 """Klenow k_pol for the correct base, low end of 63–250 s⁻¹ (Biochemistry 45:890, 2006)
-[REF §1]. Unit: 1/s."""
+[lit]. Unit: 1/s."""
 
 POLYMERASE_KD_DNTP_M: float = 12e-6
-"""Klenow K_d(dNTP), high end of 3–12 µM (Biochemistry 45:890, 2006) [REF §1]. Unit: M. With
+"""Klenow K_d(dNTP), high end of 3–12 µM (Biochemistry 45:890, 2006) [lit]. Unit: M. With
 k_pol at the low end this is the slowest extension the published ranges allow."""
 
 POLYMERASE_KD_DNA_M: float = 5e-9
 """Klenow–primer/template dissociation constant, ≈ 5 nM (Kuchta et al., Biochemistry 26:8410,
-1987) [lit, not in REFERENCE]. Unit: M."""
+1987) [lit, not verified here]. Unit: M."""
 
 # --- choices ------------------------------------------------------------------------------------
 
@@ -83,10 +85,10 @@ its time unconverted (the paper's limit takes it as instantaneous). Unit: 1/s.""
 APYRASE_DNTP_OVER_ATP: float = 10.0
 """Default ratio k_d / k_a of apyrase's first-order dNTP and ATP clearance [choice]. The paper
 gives only k_a (ATP); with k_d = 10 k_a = 0.5 s⁻¹ a flow's nucleotide is cleared to e⁻³⁰ within
-a 60 s flow, so residual nucleotide does not carry forward (REFERENCE: "apyrase clearing between
-flows")."""
+a 60 s flow, so residual nucleotide does not carry forward (apyrase clears the well between
+flows)."""
 
-_KM_APYRASE_M = 100e-6  # [choice] apyrase K_m for ATP and for dNTP (REFERENCE gives none)
+_KM_APYRASE_M = 100e-6  # [choice] apyrase K_m for ATP and for dNTP (no published value used)
 _KCAT_APYRASE_ATP = 5.0  # [choice] with 1 µM apyrase: k_a = 5 · 1e-6 / 1e-4 = 0.05 s⁻¹
 _APYRASE_M = 1e-6  # [choice]
 _LUCIFERIN_M = 1e-3  # [choice] 1 mM: far above K_m(LH) = 15 µM
@@ -132,7 +134,7 @@ _POSITIVE = ("_km_", "_kd_", "_ki_")
 
 @dataclass(frozen=True)
 class CascadeParams:
-    """Constants of one site's pyrosequencing cascade (REFERENCE §1; Agah et al. 2004).
+    """Constants of one site's pyrosequencing cascade (Agah et al. 2004).
 
     Concentrations in M, rate constants in 1/s, volume in L. Validated on construction: every
     field finite; concentrations and turnover numbers >= 0; K_m, K_d, K_i and the volume > 0;
@@ -144,22 +146,23 @@ class CascadeParams:
         Reaction volume of the site [choice: 1 nL, a 100 µm cube over a 100 µm diode]. Turns
         amounts (mol) into concentrations and turnovers into photons (paper eq. 3).
     alpha : float
-        Photons per light-path luciferase turnover (0.88, Seliger & McElroy, as the paper) [REF].
+        Photons per light-path luciferase turnover (0.88, Seliger & McElroy, as the paper) [lit].
     polymerase_M, polymerase_kpol_per_s, polymerase_kd_dntp_M, polymerase_kd_dna_M : float
         Klenow concentration [choice: 2 µM, in excess over a 1 µM template], k_pol and K_d(dNTP)
-        [REF §1], K_d(DNA) [lit]. The rate per primed strand is
+        [lit: Biochemistry 45:890, 2006], K_d(DNA) [lit]. The rate per primed strand is
         ``k_pol θ [dNTP] / (K_d + [dNTP])``, θ the polymerase-bound share of the strands at
         binding equilibrium.
     dntp_M : float
         Nucleotide added by each dispensation [choice: 10 µM, near K_d(dNTP)].
     sulfurylase_M, sulfurylase_kcat_per_s, sulfurylase_km_ppi_M, sulfurylase_km_aps_M : float
-        ATP sulfurylase amount [choice: k_s = 100 s⁻¹], turnover and K_m values [REF §1].
+        ATP sulfurylase amount [choice: k_s = 100 s⁻¹], turnover and K_m values [lit: Biochem J 301,
+        1994].
     aps_M : float
         APS at the start [choice: 1 mM]. Consumed once per ATP made.
     luciferase_M, luciferase_kcat_per_s, luciferase_km_atp_M, luciferase_km_luciferin_M : float
         Luciferase amount [choice: gives the paper's k_t = 1 s⁻¹], k_cat [choice: 1 s⁻¹],
         K_m(ATP) of the flash site (110 µM, matching the paper's flash-type k_t for
-        pyrosequencing) and K_m(luciferin) [REF §1].
+        pyrosequencing) and K_m(luciferin) [lit].
     luciferin_M : float
         Luciferin at the start [choice: 1 mM]. Consumed once per luciferase turnover.
     lamp_fraction : float
@@ -167,9 +170,9 @@ class CascadeParams:
         [choice: 0, the paper's α per turnover].
     product_inhibition : bool
         If True, oxyluciferin and L-AMP inhibit luciferase competitively with luciferin
-        (K_i below) [REF §1]; off by default, as in the paper.
+        (K_i below) [lit]; off by default, as in the paper.
     ki_oxyluciferin_M, ki_lamp_M : float
-        Inhibition constants [REF §1].
+        Inhibition constants [lit: Ribeiro & Esteves da Silva 2008].
     apyrase_M, apyrase_kcat_atp_per_s, apyrase_km_atp_M, apyrase_kcat_dntp_per_s,
     apyrase_km_dntp_M : float
         Apyrase amount and its Michaelis–Menten constants for ATP and for each dNTP (competing
@@ -253,7 +256,8 @@ class CascadeParams:
         Each PPi is turned into ATP (sulfurylase); each ATP is either turned over by luciferase
         (probability k_t / (k_t + k_a)), which gives light and the PPi back, or removed by
         apyrase. The number of turnovers per PPi is therefore k_t / k_a — paper eq. 19 integrated
-        (REFERENCE §1: 17.6 with the paper's values). Infinite when k_a = 0.
+        (17.6 with the paper's values, α·k_t/k_a = 0.88·1/0.05; sources.md K8). Infinite
+        when k_a = 0.
         """
         r = self.linear_rates()
         light = self.alpha * (1.0 - self.lamp_fraction) * r["turnover_per_s"]

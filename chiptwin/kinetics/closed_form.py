@@ -2,7 +2,7 @@
 
 Source: K. Salama, H. Eltoukhy, A. Hassibi, A. El Gamal, "Modeling and simulation of luminescence
 detection platforms", Biosensors & Bioelectronics 19 (2004) — "the paper" below; the numbers are
-collected in REFERENCE.md §1.
+tabulated in docs/background/sources.md, Kinetics.
 
 Units: time in s, rate constants in 1/s or 1/(M·s), concentrations in M (= mol/L), amounts of
 reactant in mol (``V·[X]``: volume in L times concentration in M), light in photons/s or photons,
@@ -46,7 +46,7 @@ PYRO_APYRASE_PER_S: float = 0.05
 
 RONAGHI_PHOTONS_PER_INCORPORATION: float = 0.01
 """Measured yield, "1 pmol DNA → 6e11 ATP → > 6e9 photons" (Ronaghi, Genome Res. 11, 2001; the
-quote is unverified, REFERENCE §1): about 0.01 photon per incorporated base."""
+quote is not checked against the primary text here): about 0.01 photon per incorporated base."""
 
 
 def _out(x: NDArray[np.float64]) -> FloatOrArray:
@@ -152,7 +152,8 @@ def emission_prefactor(
     Notes
     -----
     The paper's rounded prefactors: 5.3e22 in eqs. 12–13 (α = 0.88, k_t = 0.1 s⁻¹) and 5.3e23 in
-    eq. 19 (α = 0.88, k_t = 1 s⁻¹) (REFERENCE §1, "prefactors decoded").
+    eq. 19 (α = 0.88, k_t = 1 s⁻¹) (5.3e22 = N_A·0.88·0.1, 5.3e23 = N_A·0.88·1.0;
+    docs/background/sources.md K7).
     """
     k_t = _checks.nonnegative("turnover_per_s", turnover_per_s)
     return _out(N_A * _checks.quantum_yield("alpha", alpha) * k_t)
@@ -418,7 +419,7 @@ def incorporation_yield(
     Notes
     -----
     Integral of eq. 19 over all time per DNA strand. It exceeds α because PPi is recycled
-    (ATP sulfurylase turns it back into ATP) until apyrase removes the ATP (REFERENCE §1).
+    (ATP sulfurylase turns it back into ATP) until apyrase removes the ATP (sources.md K8).
     """
     k_t = _checks.nonnegative("turnover_per_s", turnover_per_s)
     k_a = _checks.positive("apyrase_per_s", apyrase_per_s)

@@ -14,7 +14,7 @@ class LightSource(Protocol):
     """Light emitted per site, into 4π.
 
     :class:`~chiptwin.kinetics.pulse_train.PulseTrain` (closed form) is one; the cascade level
-    (issue 5) provides another with the same methods.
+    provides another with the same methods.
     """
 
     @property

@@ -13,7 +13,7 @@ Reading the light back:
    the first homopolymer of the unknown insert (``…G`` + ``GG…`` reads as one 3-mer).
 2. :func:`normalise_flows` divides the flow signals by the mean signal of the key's 1-mer flows, so
    a 1-mer reads ≈ 1.0, a 2-mer ≈ 2.0 and an empty flow ≈ 0 (Margulies et al., Nature 437, 2005;
-   the 454 flowgram convention whose peak spread is in REFERENCE §1, Balzer et al. 2010).
+   the 454 flowgram convention whose peak spread Balzer et al., Bioinformatics 26, 2010 measured).
 3. :func:`call_sequence` rounds the normalised values to homopolymer lengths and spells the read.
 
 Use a template that starts with the key (``template = key + insert``); the called read then starts

@@ -3,7 +3,7 @@
 Unit in: photons emitted per site (into 4π); unit out: photons per pixel, via the coupling matrix
 ``C (n_pixels, n_sites)`` — pixel photons = ``C @ source.photons(edges)``.
 
-Levels (SPEC "optics"): ``na2`` (:func:`coupling_na2`, geometric collection efficiency, no
+Levels: ``na2`` (:func:`coupling_na2`, geometric collection efficiency, no
 spread) and ``psf`` (:func:`coupling_psf`, the irradiance integrated exactly over every diode and
 averaged over the site footprint, cross-talk included). Both take an emission ``convention`` by
 name (:data:`CONVENTIONS`): ``"lambertian_na2"`` (the paper's NA²) or ``"isotropic"``.

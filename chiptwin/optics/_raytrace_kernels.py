@@ -1,9 +1,9 @@
 """numba kernel of :mod:`chiptwin.optics.raytrace`: analog Monte Carlo rays through a planar stack.
 
 Arrays and scalars in, one outcome code per ray out; no objects, no globals but the code constants
-below. The wrapper validates everything once (STYLE 3). Geometry: ``z`` is the height above the
-diode plane (µm); layer ``i`` spans ``[z_bottom[i], z_top[i]]`` with ``z_top[0]`` the site plane;
-below the last layer lies the silicon.
+below. The wrapper validates everything once, so the kernels do not. Geometry: ``z`` is the height
+above the diode plane (µm); layer ``i`` spans ``[z_bottom[i], z_top[i]]`` with ``z_top[0]`` the site
+plane; below the last layer lies the silicon.
 
 Outcome codes (one per ray, so transmitted + reflected out + absorbed = emitted, ray by ray):
 ``0 … n_pixels−1`` the pixel whose diode absorbed the ray, then ``n_pixels +`` :data:`SILICON`

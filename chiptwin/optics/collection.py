@@ -6,13 +6,14 @@ half-angle ``θ = atan(D / 2U)``.
 ``"lambertian_na2"``
     The fraction is ``NA² = sin²θ``: the source radiates as a Lambertian surface facing the disc
     (radiance ∝ cos, half the sphere, total 1 over the plane). This is the paper's convention
-    (Salama et al. 2004, §3: collection efficiency ∝ NA², NA = sin(θmax)), which gives 1.54 % for a
-    camera lens with ``D = 0.5 f`` at ``U = 2 f`` and 91.7 % for contact imaging with
-    ``D = 100 µm``, ``U = 15 µm`` (REFERENCE §2; the paper rounds to 1.6 % and 91 %).
+    (Salama et al. 2004, Sec. 3: collection efficiency ∝ NA², NA = sin(θmax)), which gives 1.54 %
+    for a camera lens with ``D = 0.5 f`` at ``U = 2 f`` and 91.7 % for contact imaging with
+    ``D = 100 µm``, ``U = 15 µm`` (derived from the paper's formula; the paper rounds to 1.6 % and
+    91 %).
 ``"isotropic"``
     The fraction is the solid angle over 4π, ``(1 − cos θ) / 2``: a luminescent molecule in
     solution emits the same in every direction, so at most half the light reaches the plane.
-    0.39 % and 35.6 % for the two cases above (REFERENCE §2).
+    0.39 % and 35.6 % for the two cases above (derived; docs/background/sources.md O2–O4).
 
 Both are exact for their emitter; they are the on-axis disc cases of the plane irradiance used by
 :mod:`chiptwin.optics.psf` (``U²/(r²+U²)²/π`` and ``U/(r²+U²)^{3/2}/(4π)``).
@@ -109,7 +110,7 @@ def collection_efficiency(
 
     Notes
     -----
-    Salama et al. 2004, §3: efficiency ∝ NA², NA = sin(atan(D/2U)). Evaluated without
+    Salama et al. 2004, Sec. 3: efficiency ∝ NA², NA = sin(atan(D/2U)). Evaluated without
     cancellation as ``R²/h²`` (Lambertian) and ``R² / (2h(h + U))`` (isotropic), ``R = D/2``,
     ``h = √(R² + U²)``, so tiny apertures keep full relative precision.
     """

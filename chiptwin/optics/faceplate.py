@@ -1,9 +1,9 @@
 """Fibre-optic faceplate at the ``psf`` level: an angular acceptance and a pitch-sized blur.
 
 A faceplate is a fused bundle of fibres (cores in a cladding, with an extramural absorber between
-them) laid between the assay and the chip (REFERENCE §2, §3: the JSSC 2006 chip carries its assays
-on one). The ``psf`` level models it as three deterministic operations on the light that reaches
-its top face:
+them) laid between the assay and the chip (faceplate makers' datasheets; Eltoukhy et al., JSSC 2006:
+the chip carries its assays on one). The ``psf`` level models it as three deterministic operations
+on the light that reaches its top face:
 
 1. **acceptance**: a ray is carried down its fibre when Snell's invariant of the medium above,
    ``n·sinθ``, is at most the numerical aperture ``na`` (the invariant is the same in every planar

@@ -1,4 +1,4 @@
-"""The planar layer stack between an emitting site and the photodiodes (issue 18).
+"""The planar layer stack between an emitting site and the photodiodes.
 
 Light leaves the site inside the well's solution and crosses planar layers (oxide or nitride
 passivation, a glass coverslip, a fibre-optic faceplate's cladding) before it reaches the silicon.
@@ -7,7 +7,8 @@ its lower interface, and the diode plane is the upper surface of the silicon bel
 
 Units: lengths in µm; ``alpha_per_um`` is the intensity absorption coefficient (Beer–Lambert,
 ``I = I₀ exp(−α s)`` along a path of length ``s``); ``n`` the real refractive index.
-Indices with sources: REFERENCE §2 (water 1.33, SiO₂ 1.46, Si₃N₄ ≈ 2.0, glass 1.5).
+Indices (textbook values near 560 nm; docs/background/sources.md O11): water 1.33, SiO₂ 1.46, Si₃N₄
+≈ 2.0, glass 1.5.
 """
 
 from __future__ import annotations
@@ -28,9 +29,10 @@ THICKNESS_RANGE_UM: tuple[float, float] = (0.0, 1e5)
 ALPHA_MAX_PER_UM: float = 1e3
 """Largest absorption coefficient accepted: far above silicon's ≈ 1 µm⁻¹ in the blue."""
 
-#: The luciferase's emission: peak 562 nm (the paper; REFERENCE §1, firefly luciferase's
-#: yellow-green band). The band's width is not in REFERENCE: 70 nm FWHM is an assumption (the
-#: in-vitro firefly spectrum's main band); the tests and the optics notes give the sensitivity.
+#: The luciferase's emission: peak 562 nm (Salama et al. 2004; firefly luciferase's yellow-green
+#: band; docs/background/sources.md K11). The band's width is not published with it: 70 nm FWHM
+#: is an assumption (the in-vitro firefly spectrum's main band); the tests and the optics notes give
+#: the sensitivity.
 PEAK_NM: float = 562.0
 FWHM_NM: float = 70.0
 
@@ -134,8 +136,8 @@ class Stack:
 
     The first layer's ``thickness_um`` is the distance from the site down to the first interface
     (the solution below the site). ``silicon_n`` is the substrate's index (≈ 4.3 at 470–560 nm,
-    REFERENCE §2): its reflectance follows from Fresnel at the last interface. Inner layers no
-    thicker than ``thin_film_um`` are thin films, coherent over the emission ``band``
+    textbook; sources.md O11): its reflectance follows from Fresnel at the last interface. Inner
+    layers no thicker than ``thin_film_um`` are thin films, coherent over the emission ``band``
     (:meth:`ray_path`).
     """
 
@@ -161,7 +163,7 @@ class Stack:
         A film is an inner layer (neither the first, where the site emits, nor the last, above
         the diode plane) no thicker than :attr:`thin_film_um` (0: none). Its multiple
         reflections add as amplitudes over the emission :attr:`band`
-        (:func:`chiptwin.optics.thinfilm.band_average`, REFERENCE §2's transfer-matrix check)
+        (:func:`chiptwin.optics.thinfilm.band_average`, the transfer-matrix check, sources.md O12)
         and it moves no light sideways: ≤ d·tan θ, a few µm, against pixels of tens."""
         rays, films, between = [self.layers[0]], [], []
         for i, layer in enumerate(self.layers[1:], 1):

@@ -1,4 +1,4 @@
-"""Radial profile of a point source's light on the diode plane, through a planar stack (issue 18).
+"""Radial profile of a point source's light on the diode plane, through a planar stack.
 
 A ray leaves the site at polar angle θ₀ (from the downward normal) in the first layer of a
 :class:`~chiptwin.optics.layers.Stack`. In every planar layer Snell's invariant ``β = n·sinθ``
@@ -20,7 +20,7 @@ Emitters (laws of the emitted intensity in the first layer, facing down):
 * ``"isotropic"``: ``dP = ½·W·d(−cos θ₀)`` (half the light goes down);
 * ``"lambertian"``: ``dP = W·d(−cos² θ₀)`` (intensity ∝ cos θ₀; all of it goes down).
 
-Multiple reflections are left out on purpose (single pass, as issue 18 asks for the psf level): see
+Multiple reflections are left out on purpose (the psf level is single pass by design): see
 :func:`chiptwin.optics.stack_psf.plane_fraction_stack` for the incoherent multiple-reflection
 energy, which measures what the single pass leaves out. Except in thin films
 (:meth:`~chiptwin.optics.layers.Stack.ray_path`: inner layers up to ``thin_film_um``, 2 µm by

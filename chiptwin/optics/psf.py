@@ -11,7 +11,7 @@ Irradiance of a unit point source at lateral distance ``r`` (per µm², fraction
 * ``"isotropic"``:      ``U / (r² + U²)^{3/2} / (4π)``, integrating to 1/2 over the plane;
 * ``"lambertian_na2"``: ``U² / (r² + U²)² / π``, integrating to 1 (Lambertian, facing down).
 
-Two fidelity levels (SPEC "optics"):
+Two fidelity levels of the optics stage:
 
 ``psf``
     :func:`coupling_psf`: the irradiance integrated exactly over every diode rectangle (closed-form
@@ -390,7 +390,7 @@ def coupling_na2(
     -------
     ndarray, shape (n_rows * n_cols, n_sites)
         One non-zero per column: the pixel whose pitch cell holds the site gets the efficiency of
-        a point source centred over its diode (Salama et al. 2004, §3: efficiency ∝ NA²). The
+        a point source centred over its diode (Salama et al. 2004, Sec. 3: efficiency ∝ NA²). The
         site's position inside the cell and its footprint are ignored, as is cross-talk.
     """
     rows, cols, pitch = _check_grid(n_rows, n_cols, pitch_um, diode_w_um, diode_h_um)

@@ -1,6 +1,6 @@
 """The ``raytrace`` optics level: Monte Carlo rays from each site through the planar stack.
 
-The reference the ``psf`` levels are measured against (issue 18, item 3). Rays leave a site
+The reference the ``psf`` levels are measured against. Rays leave a site
 (uniform over its footprint; isotropic, or Lambertian facing down) inside the first layer of a
 :class:`~chiptwin.optics.layers.Stack` and are followed through every planar interface until each
 ends in exactly one place:

@@ -2,7 +2,7 @@
 
 Source: Eltoukhy, Salama, El Gamal, "A 0.18-µm CMOS bioluminescence detection lab-on-chip",
 IEEE JSSC 41(3):651, 2006 (abstract: the assays sit on a fibre-optic faceplate placed directly on
-the chip; REFERENCE §3). Everything else below is an ASSUMPTION, named in :data:`ASSUMPTIONS`:
+the chip). Everything else below is an ASSUMPTION, named in :data:`ASSUMPTIONS`:
 the abstract gives no faceplate data and no passivation thicknesses.
 """
 
@@ -12,13 +12,13 @@ from chiptwin.optics.faceplate import Faceplate
 from chiptwin.optics.layers import Layer, Stack
 
 WATER_N: float = 1.33
-"""Assay buffer at 560 nm (REFERENCE §2, textbook)."""
+"""Assay buffer at 560 nm (textbook value; docs/background/sources.md O11)."""
 
 ASSUMPTIONS: dict[str, str] = {
     "water_um": "10 µm of assay solution from the emitting site down to the faceplate: a bead of "
                 "≈ 20 µm resting on the face (choice; the paper's contact case is 15 µm)",
     "faceplate.na": "1.0 in air: the common 'NA 1.0' faceplates of the makers' datasheets "
-                    "(REFERENCE §2: 0.5–1.0); in water it accepts n·sinθ ≤ 1, θ ≤ 48.8°",
+                    "(typically 0.5–1.0); in water it accepts n·sinθ ≤ 1, θ ≤ 48.8°",
     "faceplate.fiber_pitch_um": "6 µm (typical fibre pitch of imaging faceplates; choice)",
     "faceplate.thickness_um": "1000 µm (choice; does not enter the psf level)",
     "faceplate.open_area_ratio": "0.7 (core share of the face; choice)",

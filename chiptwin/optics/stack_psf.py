@@ -1,4 +1,4 @@
-"""The ``psf`` level through a planar layer stack, with an optional fibre faceplate (issue 18).
+"""The ``psf`` level through a planar layer stack, with an optional fibre faceplate.
 
 Same geometry and output as :func:`chiptwin.optics.psf.coupling_psf` (pixel ``p = row·n_cols +
 col``, diodes centred in their pitch cells, ``C[p, s]`` the fraction of site ``s``'s emitted
@@ -387,7 +387,8 @@ def plane_fraction_stack(stack: Stack, emitter: str, *, into_silicon: bool = Fal
 
     ``reflections="single"``: the psf level's single pass (equal to the coupling summed over a
     huge diode). ``"incoherent"``: with the incoherent multiple-reflection sum inside every layer
-    below the first (slab factor ``T₁₂T₂₃/(1 − R₂₁R₂₃)`` per polarisation, REFERENCE §2, nested):
+    below the first (slab factor ``T₁₂T₂₃/(1 − R₂₁R₂₃)`` per polarisation, Born & Wolf Sec. 1.5;
+    sources.md O8; nested):
     the energy the single pass leaves out, which the ``raytrace`` level places. ``"coherent"``:
     the multiple reflections as amplitudes (transfer matrices, :mod:`chiptwin.optics.thinfilm`)
     averaged over the emission ``band`` (default: the stack's own), over

@@ -1,7 +1,8 @@
 """Coherent transmission through the planar stack: transfer matrices over the emission band.
 
-REFERENCE §2: "≈ 1 µm oxide/nitride are coherent at visible wavelengths: a ray tracer treats them
-incoherently; a transfer-matrix (thin-film) calculation is the check". This module is that check.
+Passivation layers of ≈ 1 µm oxide/nitride are coherent at visible wavelengths: a ray tracer treats
+them incoherently, and a transfer-matrix (thin-film) calculation is the check (Macleod,
+*Thin-Film Optical Filters*; docs/background/sources.md O12). This module is that check.
 The psf level (:mod:`chiptwin.optics.profile`) multiplies single-pass Fresnel transmittances; the
 ``incoherent`` plane fraction (:func:`chiptwin.optics.stack_psf.plane_fraction_stack`) adds the
 multiple reflections inside each layer as powers; here they add as amplitudes, with their phases,

@@ -1,6 +1,6 @@
 """Photon statistics: from a light source's rate to photons per pixel.
 
-Levels (SPEC, the fidelity ladder): ``expected`` (means and variances, in :mod:`chiptwin.pixel`),
+Levels (the fidelity ladder): ``expected`` (means and variances, in :mod:`chiptwin.pixel`),
 ``binned`` (:func:`binned`: Poisson counts of the exact window integrals) and ``events``
 (:func:`arrival_times`: exact arrival times of the inhomogeneous Poisson process, by time
 rescaling through the integrated rate). :func:`saturation_time` turns arrival times into the time a

@@ -1,7 +1,7 @@
 """Pixel and ADC: photons on each photodiode → electrons → volts → ADC codes.
 
-The readout modelled, per frame (REFERENCE §3–4; El Gamal & Eltoukhy, IEEE Circuits & Devices
-21(3), 2005)::
+The readout modelled, per frame (Eltoukhy et al., JSSC 2006; El Gamal & Eltoukhy, IEEE Circuits &
+Devices 21(3), 2005)::
 
     reset ─► M reset samples ─► integrate t_int ─► M signal samples ─► (next frame's reset)
              kTC + read noise                       charge + kTC + read noise

@@ -9,7 +9,7 @@ full scale over 2^N) and round to nearest::
 Code ``k`` is centred on ``v_min_V + k·LSB``: its transition levels sit half an LSB either side,
 so every interior code is exactly one LSB wide (``1/(1 + gain_error)`` LSB with a gain error) and
 the quantisation error is zero-mean. Ties round half to even (``numpy.rint``), which is unbiased
-too. Pyxel 3.0.2 truncates instead, a −0.5 LSB bias (REFERENCE §6).
+too. Pyxel 3.0.2 truncates instead, a −0.5 LSB bias (measured here; docs/background/sources.md A2).
 """
 
 from __future__ import annotations
@@ -252,7 +252,7 @@ def adc_expected(
     mean_code, var_code : ndarray
         Moments of the code: well inside the range and for an input rms σ ≥ 2 LSB these are
         ``x̄`` and ``σ² + 1/12`` (Sheppard's correction: the LSB²/12 quantisation noise of
-        REFERENCE §4; error ∝ exp(−2π²σ²) < 1e-30); otherwise exact for a Gaussian input.
+        Widrow & Kollár 2008; error ∝ exp(−2π²σ²) < 1e-30); otherwise exact for a Gaussian input.
 
     Notes
     -----

@@ -13,7 +13,7 @@ with which the lookup is ``clip(rint(x), 0, 2^N − 1)`` bit for bit (ties inclu
 or DNL there is no table and ``x_i`` is rounded as today. With every effect 0 the converter is
 *ideal*: the kernels run today's arithmetic and draw nothing (bit-identical codes and streams).
 
-Conventions (REFERENCE §8; IEEE Std 1241):
+Conventions (IEEE Std 1241; docs/background/sources.md D1–D4):
 
 * **DNL** (``dnl_rms_lsb``): the widths of the interior codes ``1 … 2^N − 2`` of each ramp are
   ``w_k = 1 + dnl_rms·z_k`` (ideal base) clipped at 0 (a zero width is a missing code), then all
@@ -80,7 +80,7 @@ class AsBuilt:
     ----------
     comparator_noise_lsb : float
         Input-referred comparator and ramp noise, rms, a fresh draw per conversion (it dithers).
-        Unit: LSB. Typical: a few tenths to one LSB (issue 17). ≥ 0.
+        Unit: LSB. Typical: a few tenths to one LSB. ≥ 0.
     inl_max_lsb : float
         Peak of the ramp's bow (end-point INL), signed. Unit: LSB.
     inl_shape : {"quadratic", "cubic", "table"}

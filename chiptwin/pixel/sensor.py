@@ -10,7 +10,7 @@ independent per sample. Two photon-statistics levels share these parameters:
 * ``expected`` — :func:`expected_frame` gives the mean and variance of the correlated double
   sampling difference ``mean(signal) − mean(reset)`` analytically, without drawing.
 
-Sources: El Gamal & Eltoukhy, IEEE Circuits & Devices 21(3), 2005 (noise model, REFERENCE §4);
+Sources: El Gamal & Eltoukhy, IEEE Circuits & Devices 21(3), 2005 (noise model);
 Salama et al., Biosensors & Bioelectronics 19 (2004), eqs. 20–21.
 """
 
@@ -39,7 +39,7 @@ def dark_current_e_per_s(
     ----------
     j_nA_per_cm2 : float
         Dark current density at ``ref_temp_C``. Unit: nA/cm². Typical: 0.1–10 for plain n-well
-        diodes at 25 °C, tens of pA/cm² for low-dark-current diodes (REFERENCE §4).
+        diodes at 25 °C, tens of pA/cm² for low-dark-current diodes (docs/background/sources.md P8).
     area_um2 : float
         Photodiode area. Unit: µm².
     temp_C : float
@@ -56,8 +56,8 @@ def dark_current_e_per_s(
 
     Notes
     -----
-    Doubling every 5–8 °C: Harvest Imaging (REFERENCE §4). 1 nA/cm² on 100 × 100 µm gives
-    1e-13 A ≈ 6.24e5 e⁻/s at the reference temperature.
+    Doubling every 5–8 °C: Theuwissen, Harvest Imaging (sources.md P7). 1 nA/cm² on 100 × 100 µm
+    gives 1e-13 A ≈ 6.24e5 e⁻/s at the reference temperature.
     """
     j = check_scalar("j_nA_per_cm2", j_nA_per_cm2, 0.0)
     area = check_scalar("area_um2", area_um2, 0.0, lo_open=True)
@@ -81,7 +81,8 @@ def ktc_noise_e(capacitance_fF: float, temp_K: float = T_ROOM_K) -> float:
     Returns
     -------
     float
-        ``√(k·T·C) / q``: 40 e⁻ at 10 fF, 127 e⁻ at 100 fF, 402 e⁻ at 1 pF, 300 K (REFERENCE §4).
+        ``√(k·T·C) / q``: 40 e⁻ at 10 fF, 127 e⁻ at 100 fF, 402 e⁻ at 1 pF, 300 K (derived;
+        sources.md P5).
     """
     c = check_scalar("capacitance_fF", capacitance_fF, 0.0, lo_open=True)
     t = check_scalar("temp_K", temp_K, 0.0)
@@ -99,7 +100,7 @@ def conversion_gain_uV_per_e(capacitance_fF: float) -> float:
     Returns
     -------
     float
-        16.0 µV/e⁻ at 10 fF; 0.160 µV/e⁻ at 1 pF (the 100 µm diode of REFERENCE §4).
+        16.0 µV/e⁻ at 10 fF; 0.160 µV/e⁻ at 1 pF (the 100 µm diode of sources.md P6).
     """
     c = check_scalar("capacitance_fF", capacitance_fF, 0.0, lo_open=True)
     return Q_E / (c * 1e-15) * 1e6
@@ -137,11 +138,11 @@ def fixed_pattern_maps(
     -----
     Both maps are lognormal with mean 1 and coefficient of variation ``frac``, then divided by
     their sample mean, so each averages to exactly 1 (up to rounding) and the array's mean
-    response is the nominal one. Pyxel 3.0.2's PRNU map does not average to 1 (REFERENCE §6).
-    The lognormal is positive by construction (no negative gain or dark current however large
-    the spread); for the gain with ``frac`` ≲ 0.05 it is indistinguishable from the Gaussian
-    N(1, frac²) of EMVA 1288; for the dark map its right skew gives the hot-pixel tail that dark
-    current distributions show. The normalisation changes the sample CV by O(frac/√n).
+    response is the nominal one. Pyxel 3.0.2's PRNU map does not average to 1 (measured here;
+    sources.md A2). The lognormal is positive by construction (no negative gain or dark current
+    however large the spread); for the gain with ``frac`` ≲ 0.05 it is indistinguishable from the
+    Gaussian N(1, frac²) of EMVA 1288; for the dark map its right skew gives the hot-pixel tail that
+    dark current distributions show. The normalisation changes the sample CV by O(frac/√n).
     """
     n = check_int("n_pixels", n_pixels, 1)
     prnu = check_scalar("prnu_frac", prnu_frac, 0.0)
@@ -162,7 +163,8 @@ def mean_electrons(
         Expected photons on each photodiode in the window (the exact integral of the photon rate;
         the draw happens in :func:`sample_frame`). Unit: photons.
     qe : float
-        Quantum efficiency at the emission wavelength, in [0, 1] (REFERENCE §4: 0.3–0.6 at 560 nm).
+        Quantum efficiency at the emission wavelength, in [0, 1] (typically 0.3–0.6 at 560 nm;
+        sources.md P9).
     gain_map : array_like
         PRNU multiplier per pixel (mean 1), broadcast against ``photons``. Unit: 1.
     dark_e : array_like

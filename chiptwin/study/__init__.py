@@ -1,7 +1,7 @@
 """Budget studies: a scenario swept over axes, with replicates, metrics, statistics and an answer.
 
 ``chiptwin study FILE`` and :func:`run_study` answer "the cheapest budget (ADC bits, frame
-memory, DNA amount) that meets the requirement, at what confidence" (SPEC: Studies):
+memory, DNA amount) that meets the requirement, at what confidence":
 
 - :mod:`.spec`: the study file, validated like a scenario;
 - :mod:`.metrics`: the catalogue of per-run metrics;

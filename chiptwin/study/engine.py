@@ -3,7 +3,8 @@
 Order of work: (1) every point's scenario is validated before the first run (a typo costs a
 second; an inconsistent combination becomes an ``invalid`` point, shown in the report); (2) the
 reference points run first (their rows define the ideal of ``snr_loss_db``); (3) the grid runs
-every point × replicate, or the bisection runs points one at a time, adding ``batch`` replicates
+every point × replicate (with ``stop_early``, in looks of ``batch`` replicates, each point until
+it is decided), or the bisection runs points one at a time, adding ``batch`` replicates
 until every requirement is decided (or the cap ``replicates`` is reached); (4) rows already in
 the store are never recomputed, so the same command resumes an interrupted study.
 """
@@ -24,21 +25,27 @@ from chiptwin import __version__
 from chiptwin.config import ScenarioError
 from chiptwin.config.cost import WORKER_START_S
 from chiptwin.detection.stats import (
+    INTERIM_ALPHA_SHARE,
     Estimate,
     decide,
+    look_levels,
+    look_sizes,
     looks_confidence,
     loss_db_interval,
     mean_estimate,
     rate_estimate,
 )
 from chiptwin.study import search, sensitivity
-from chiptwin.study.execute import make_executor
+from chiptwin.study.execute import WORKER_TIMEOUT_S, batches, make_executor, rows_per_task
 from chiptwin.study.metrics import CATALOGUE, row_metrics
-from chiptwin.study.rows import RowTask, chip_seed, row_seed
+from chiptwin.study.rows import SCENE_CACHE_SIZE, RowTask, chip_seed, row_seed
 from chiptwin.study.spec import Point, Study, load_study, point_scenario
 from chiptwin.study.store import Store
 
 Progress = Callable[[int, int], None]
+#: Point statuses that end a point's looks (``undecided`` adds a batch; ``measured`` has no
+#: requirement to decide).
+DECIDED = ("pass", "fail", "invalid")
 
 
 @dataclass
@@ -55,7 +62,10 @@ class StudyResult:
 def run_study(study: Study | str | Path, workers: int | None = None,
               scheduler: str | None = None, db: str | Path = ":memory:", fresh: bool = False,
               progress: Progress | None = None,
-              announce: Callable[[float, int], None] | None = None) -> StudyResult:
+              announce: Callable[[float, int], None] | None = None, *,
+              task_rows: int | None = None, in_flight: int | None = None,
+              scheduler_file: str | None = None,
+              worker_timeout_s: float = WORKER_TIMEOUT_S) -> StudyResult:
     """Run a study and return its table and answer.
 
     Parameters
@@ -68,6 +78,11 @@ def run_study(study: Study | str | Path, workers: int | None = None,
     progress : ``progress(rows_done, rows_total)`` as rows finish
     announce : ``announce(seconds, rows)`` once before the first row: the estimated wall time
         of the rows not stored yet (:func:`estimate_s`) on this executor's workers
+    task_rows : rows per executor task (default: a few seconds of rows,
+        :func:`chiptwin.study.execute.rows_per_task`); the table does not depend on it
+    in_flight : executor tasks out at once (default: two per worker)
+    scheduler_file : a Dask scheduler file (instead of ``scheduler``), as HPC clusters write
+    worker_timeout_s : seconds a Dask cluster may take to show its first worker
     """
     t0 = time.perf_counter()
     if not isinstance(study, Study):
@@ -75,7 +90,8 @@ def run_study(study: Study | str | Path, workers: int | None = None,
 
         study = load_study(resolve_study(str(study)), resolve_scenario)
     plan = Plan(study)  # validates every point before anything runs
-    executor = make_executor(workers, scheduler)  # a bad scheduler fails before the store
+    # a bad scheduler fails before the store
+    executor = make_executor(workers, scheduler, in_flight, scheduler_file, worker_timeout_s)
     try:
         store = Store(db, study, fresh=fresh)
         try:
@@ -85,7 +101,7 @@ def run_study(study: Study | str | Path, workers: int | None = None,
                 left = max(rows - resumed, 0)
                 start = WORKER_START_S if executor.workers > 1 else 0.0
                 announce(start + per_row * left / max(executor.workers, 1), left)
-            runner = _Runner(plan, store, executor, progress)
+            runner = _Runner(plan, store, executor, progress, task_rows)
             decisions = runner.search()
             table = store.rows()
         finally:
@@ -148,25 +164,35 @@ class Plan:
 class _Runner:
     """Runs missing rows through the executor into the store; keeps the rows in memory."""
 
-    def __init__(self, plan: Plan, store: Store, executor, progress: Progress | None) -> None:
+    def __init__(self, plan: Plan, store: Store, executor, progress: Progress | None,
+                 task_rows: int | None = None) -> None:
         self.plan, self.store, self.executor, self.progress = plan, store, executor, progress
+        self.task_rows = task_rows
         self.rows: dict[tuple[str, int], dict] = {(r["point"], r["replicate"]): r
                                                   for r in store.rows()}
         self.computed = 0
         self.total = 0
 
     def ensure(self, wanted: list[tuple[str, int]]) -> None:
-        """Run every ``(point, replicates)`` row not stored yet."""
+        """Run every ``(point, replicates)`` row not stored yet, in tasks of consecutive rows
+        (a point's replicates together); each finished task's rows stored in one transaction."""
         tasks = list({(t.point, t.replicate): t for pid, n in wanted
                       for t in self.plan.tasks(pid, range(n))
                       if (t.point, t.replicate) not in self.rows}.values())
         self.total = max(self.total, len(self.rows) + len(tasks))
-        for row in self.executor.run(tasks):
-            self.store.add(row)
-            self.rows[(row["point"], row["replicate"])] = row
-            self.computed += 1
+        size = self.task_rows or rows_per_task(self.row_s(), len(tasks), self.executor.workers)
+        for rows in self.executor.run(batches(tasks, size)):
+            self.store.add(rows)
+            for row in rows:
+                self.rows[(row["point"], row["replicate"])] = row
+            self.computed += len(rows)
             if self.progress:
                 self.progress(len(self.rows), self.total)
+
+    def row_s(self) -> float:
+        """A row's seconds: the mean measured over the rows run so far, else the estimate."""
+        ran = [r["wall_s"] for r in self.rows.values() if r["status"] == "ok"]
+        return sum(ran) / len(ran) if ran else estimate_s(self.plan)[0]
 
     def point_rows(self, pid: str, n: int) -> list[dict]:
         return [self.rows[(pid, r)] for r in range(n) if (pid, r) in self.rows]
@@ -176,29 +202,65 @@ class _Runner:
         study, plan = self.plan.study, self.plan
         cap = study.replicates
         refs = sorted({r for r in plan.reference_of.values() if r})
-        if study.search == "grid":
+        if study.search == "grid" and not study.stop_early:
             self.total = (len(plan.points) + len(plan.references)) * cap
             self.ensure([(pid, cap) for pid in refs] + [(p.id, cap) for p in plan.points])
             return {p.id: {"n": cap, "confidence": study.confidence} for p in plan.points}
         self.ensure([(pid, cap) for pid in refs])
+        if study.search == "grid":
+            return self.stop_early()
         looks = -(-cap // study.batch)
         conf = looks_confidence(study.confidence, looks)
         out: dict[str, dict[str, Any]] = {}
         for group in _given_groups(plan.points):
             def decide_index(i: int, group=group) -> str:
                 p = group[i]
-                n = 0
-                while n < cap:
-                    n = min(cap, n + study.batch)
+                for n in look_sizes(cap, study.batch):
                     self.ensure([(p.id, n)])
                     status = point_status(plan, p, self.point_rows(p.id, n),
                                           self._ref_rows(p.id), conf)["status"]
-                    if status in ("pass", "fail", "invalid"):
+                    if status in DECIDED:
                         break
                 out[p.id] = {"n": n, "confidence": conf, "looks": looks}
                 return status
             search.bisect(len(group), decide_index, study.verify)
         return out
+
+    def stop_early(self) -> dict[str, dict[str, Any]]:
+        """A grid in looks (:func:`~chiptwin.detection.stats.look_sizes`): each look runs the
+        next ``batch`` replicates of every point of a group not decided yet, in one round
+        through the executor; a point whose status is decided at the look's level
+        (:func:`~chiptwin.detection.stats.look_levels`) stops there. The references ran whole
+        before (every loss interval of a look uses all of its reference's rows).
+
+        The groups (:meth:`look_group_size` points) go one after another: a process keeps a few
+        prepared scenes (:data:`~chiptwin.study.rows.SCENE_CACHE_SIZE`), and a look over every
+        point of a large grid would prepare each point again at each look in each process
+        (≈ 11 s a point of ``adc_bits_pyro``, against 0.14 s a row)."""
+        plan, study = self.plan, self.plan.study
+        sizes = look_sizes(study.replicates, study.batch)
+        levels = look_levels(study.confidence, len(sizes))
+        self.total = (len(plan.points) + len(plan.references)) * study.replicates  # at most
+        out: dict[str, dict[str, Any]] = {}
+        size = self.look_group_size()
+        for first in range(0, len(plan.points), size):
+            undecided = plan.points[first:first + size]
+            for look, (n, level) in enumerate(zip(sizes, levels, strict=True), 1):
+                self.ensure([(p.id, n) for p in undecided])
+                for p in undecided:
+                    out[p.id] = {"n": n, "confidence": level, "look": look, "looks": len(sizes)}
+                undecided = [p for p in undecided if point_status(
+                    plan, p, self.point_rows(p.id, n), self._ref_rows(p.id), level)["status"]
+                    not in DECIDED]
+        return out
+
+    def look_group_size(self) -> int:
+        """Points whose looks run together: as many as a process keeps prepared, so each is
+        prepared once per process as in a whole grid; more on many workers, so a look still
+        gives every worker four rows or more (there a point's rows spread over processes that
+        prepare it anyway)."""
+        workers = max(self.executor.workers, 1)
+        return max(SCENE_CACHE_SIZE, -(-4 * workers // self.plan.study.batch))
 
     def _ref_rows(self, pid: str) -> list[dict]:
         ref = self.plan.reference_of.get(pid)
@@ -271,7 +333,7 @@ def summarise(plan: Plan, table: list[dict], searched: dict[str, dict]) -> dict[
         st = point_status(plan, p, rows, ref_rows, info["confidence"] if info else
                           study.confidence) if info else {"status": "not_visited",
                                                             "estimates": {}, "decisions": {}}
-        status_of[p.id] = st
+        status_of[p.id] = {**st, "confidence": info["confidence"] if info else None}
         points.append({
             "id": p.id, "params": p.params, "given": list(p.given), "cost": list(p.cost),
             "reference": ref, "status": st["status"], "replicates": len(rows),
@@ -307,14 +369,41 @@ def summarise(plan: Plan, table: list[dict], searched: dict[str, dict]) -> dict[
                        "requirement": "met when the one-sided bound at `confidence` is on the "
                                       "allowed side; " + search.UNDECIDED_IS_FAIL,
                        "bisect": "per-look confidence 1-(1-c)/looks (Bonferroni over the "
-                                 "sequential looks)" if study.search == "bisect" else None},
+                                 "sequential looks)" if study.search == "bisect" else None,
+                       "stop_early": STOP_EARLY_RULE if study.stop_early else None},
         "runs": {"total": len(table), **counts},
         "chiptwin_version": __version__,
     }
+    if study.stop_early:
+        summary["stop_early"] = _stop_early_summary(plan, table, searched)
     if study.kind == "sensitivity":  # a budget study's study.json stays as it was
         summary["kind"] = study.kind
         summary["sensitivity"] = sensitivity.analyse(summary, study.assumptions)
     return summary
+
+
+STOP_EARLY_RULE = (
+    "replicates added in looks of `batch` to every point not yet decided; a point stops at the "
+    "first look that decides it (pass, fail or invalid), at most `replicates`; look k of K at "
+    "one-sided level 1 - s(1-c)/(K-1) before the last and 1 - (1-s)(1-c) at the last, "
+    f"s = {INTERIM_ALPHA_SHARE:g} (Haybittle-Peto's shape; the spends add to 1-c, so Bonferroni "
+    "keeps the confidence over the looks); references run every replicate")
+
+
+def _stop_early_summary(plan: Plan, table: list[dict], searched: dict[str, dict]
+                        ) -> dict[str, Any]:
+    """``study.json``'s ``stop_early``: the looks, where the points stopped, the runs saved
+    against the whole grid (every point and reference at ``replicates``)."""
+    study = plan.study
+    sizes = look_sizes(study.replicates, study.batch)
+    levels = look_levels(study.confidence, len(sizes))
+    stopped = [sum(info.get("look") == k for info in searched.values())
+               for k in range(1, len(sizes) + 1)]
+    whole = (len(plan.points) + len(plan.references)) * study.replicates
+    return {"rule": STOP_EARLY_RULE, "batch": study.batch,
+            "looks": [{"replicates": n, "confidence": c, "points_stopped": k}
+                      for n, c, k in zip(sizes, levels, stopped, strict=True)],
+            "runs_whole_grid": whole, "runs": len(table), "runs_saved": whole - len(table)}
 
 
 def _design_effects(points: list[dict]) -> str | None:
@@ -357,11 +446,15 @@ def _answer(study: Study, group: list[Point], status_of: dict) -> dict[str, Any]
         bounds[str(q)] = {"estimate": e.value, "bound": bound, "n": e.n, "method": e.method,
                           **({"k": e.k, "trials": e.trials} if e.k is not None else {})}
     return {"given": given, "point": p.params, "id": p.id, "bounds": bounds,
-            "statement": statement(study, p, est)}
+            "statement": statement(study, p, est, status_of[p.id]["confidence"])}
 
 
-def statement(study: Study, p: Point, est: dict[str, Estimate]) -> str:
-    """The answer in one sentence, with every bound and its n."""
+def statement(study: Study, p: Point, est: dict[str, Estimate], level: float | None = None
+              ) -> str:
+    """The answer in one sentence, with every bound, its level and its n (a point decided at a
+    sequential look: the look's level, the study's confidence holding over the looks)."""
+    at = f"{study.confidence:.0%}" if level in (None, study.confidence) else \
+        f"{100 * level:.4g}% (its look's level; {study.confidence:.0%} over the looks)"
     budget = ", ".join(f"{k} = {v}" for k, v in p.params.items()
                        if k in {a.key for a in study.budget_axes})
     parts = []
@@ -371,7 +464,7 @@ def statement(study: Study, p: Point, est: dict[str, Estimate]) -> str:
         side = "upper" if q.op == "<=" else "lower"
         seen = f"{e.k}/{e.trials} {CATALOGUE[q.metric].unit}" if e.k is not None else \
             f"{e.value:.4g}"
-        parts.append(f"{q} ({seen}; one-sided {study.confidence:.0%} {side} bound "
+        parts.append(f"{q} ({seen}; one-sided {at} {side} bound "
                      f"{bound:.3g}, {e.method}, n = {e.n} runs)")
     return f"cheapest: {budget}: " + "; ".join(parts)
 

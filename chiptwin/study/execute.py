@@ -1,12 +1,16 @@
 """Where rows run: in this process, a local process pool (default), or a Dask cluster.
 
-Every executor takes a list of :class:`~chiptwin.study.rows.RowTask` and yields finished rows as
-they complete, in any order; a row's numbers depend only on its task, so the three give the same
-table. The pool uses ``spawn`` (numba and forked threads do not mix) and stays up across the
-batches of a bisect search; Dask runs on an existing cluster (``--scheduler tcp://host:8786``) or
-a ``distributed.LocalCluster`` it starts (``--scheduler local``).
+Every executor takes tasks, each a list of :class:`~chiptwin.study.rows.RowTask` (consecutive
+rows, a point's replicates together: :func:`batches`), and yields each task's finished rows as the
+task completes, in any order; a row's numbers depend only on its row task, so the three give the
+same table, however rows are batched. At most ``in_flight`` tasks are out at once (default
+:data:`IN_FLIGHT_PER_WORKER` per worker), so the client's memory does not grow with the study's
+rows and an interrupted study loses at most those tasks. The pool uses ``spawn`` (numba and
+forked threads do not mix) and stays up across the batches of a bisect search; Dask runs on an
+existing cluster (``--scheduler tcp://host:8786``, or ``--scheduler-file PATH`` as written by a
+scheduler on an HPC cluster) or a ``distributed.LocalCluster`` it starts (``--scheduler local``).
 
-Workers never outlive the study (issue 22): a pool worker asks Linux to send it SIGKILL when its
+Workers never outlive the study: a pool worker asks Linux to send it SIGKILL when its
 parent dies (``prctl(PR_SET_PDEATHSIG)``) and, as a fallback on any platform, watches its parent's
 pid from a thread; an interrupted study (Ctrl-C, SIGTERM) terminates its workers at once rather
 than waiting for the rows in flight. A Dask client cancels its futures when interrupted; a client
@@ -27,7 +31,14 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
 from chiptwin.config import ScenarioError
-from chiptwin.study.rows import RowTask, run_row
+from chiptwin.config.cost import (
+    IN_FLIGHT_PER_WORKER,
+    MAX_ROWS_PER_TASK,
+    MAX_WORKER_TIMEOUT_S,
+    TASK_TARGET_S,
+    WORKER_TIMEOUT_S,
+)
+from chiptwin.study.rows import RowTask, run_rows
 
 #: Seconds between two looks of a worker's watchdog at its parent's pid.
 WATCHDOG_PERIOD_S = 0.5
@@ -62,15 +73,36 @@ def die_with_parent(parent_pid: int) -> None:
 DASK_HINT = 'needs the optional extra: pip install "chiptwin[dask]" (Dask distributed)'
 
 
+def rows_per_task(row_s: float, rows: int, workers: int) -> int:
+    """Rows a task holds: :data:`TASK_TARGET_S` of ``row_s``-second rows, but no fewer tasks
+    than :data:`IN_FLIGHT_PER_WORKER` per worker (a small study still spreads over every
+    worker), between 1 and :data:`MAX_ROWS_PER_TASK`."""
+    by_time = int(TASK_TARGET_S / row_s) if row_s > 0 else MAX_ROWS_PER_TASK
+    spread = -(-rows // (IN_FLIGHT_PER_WORKER * max(workers, 1)))
+    return max(1, min(by_time, spread, MAX_ROWS_PER_TASK))
+
+
+def batches(tasks: Iterable[RowTask], size: int) -> Iterator[list[RowTask]]:
+    """Consecutive row tasks, ``size`` at a time (the last may hold fewer)."""
+    batch: list[RowTask] = []
+    for task in tasks:
+        batch.append(task)
+        if len(batch) == size:
+            yield batch
+            batch = []
+    if batch:
+        yield batch
+
+
 class SerialExecutor:
     """Rows one after another in this process (``--workers 1``)."""
 
     name = "serial"
     workers = 1
 
-    def run(self, tasks: Iterable[RowTask]) -> Iterator[dict[str, Any]]:
+    def run(self, tasks: Iterable[list[RowTask]]) -> Iterator[list[dict[str, Any]]]:
         for task in tasks:
-            yield run_row(task)
+            yield run_rows(task)
 
     def close(self) -> None:
         pass
@@ -80,33 +112,31 @@ class SerialExecutor:
 
 
 class PoolExecutor:
-    """A local process pool of ``workers`` processes.
-
-    At most ``2 × workers`` rows are in flight, so an interrupted study loses at most those, and
-    rows of one point run back to back on the processes that already prepared it.
-    """
+    """A local process pool of ``workers`` processes, ``in_flight`` tasks out at most (default
+    :data:`IN_FLIGHT_PER_WORKER` × workers)."""
 
     name = "pool"
 
-    def __init__(self, workers: int) -> None:
+    def __init__(self, workers: int, in_flight: int | None = None) -> None:
         self.workers = workers
+        self.in_flight = in_flight or IN_FLIGHT_PER_WORKER * workers
         self.pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
                                         initializer=die_with_parent, initargs=(os.getpid(),))
 
-    def run(self, tasks: Iterable[RowTask]) -> Iterator[dict[str, Any]]:
-        # Rows still in flight when this stops are cancelled by close() and abort(), through
+    def run(self, tasks: Iterable[list[RowTask]]) -> Iterator[list[dict[str, Any]]]:
+        # Tasks still in flight when this stops are cancelled by close() and abort(), through
         # shutdown(cancel_futures=True) in the pool's manager thread. Cancelled from this thread,
-        # a queued row raced the manager marking it broken once abort() had terminated the
+        # a queued task raced the manager marking it broken once abort() had terminated the
         # workers (InvalidStateError in Python 3.11's terminate_broken: a traceback after
         # "terminated (SIGTERM)", about one stop in 35).
         pending = iter(tasks)
         running = set()
         while True:
-            while len(running) < 2 * self.workers:
+            while len(running) < self.in_flight:
                 task = next(pending, None)
                 if task is None:
                     break
-                running.add(self.pool.submit(run_row, task))
+                running.add(self.pool.submit(run_rows, task))
             if not running:
                 return
             done, running = wait(running, return_when=FIRST_COMPLETED)
@@ -135,39 +165,66 @@ class PoolExecutor:
 
 
 class DaskExecutor:
-    """Rows on a Dask distributed cluster: an existing scheduler's address, or ``"local"``."""
+    """Rows on a Dask distributed cluster: an existing scheduler's address, ``"local"``, or
+    the scheduler a ``scheduler_file`` names (Dask's convention on HPC clusters)."""
 
     name = "dask"
 
-    def __init__(self, address: str, workers: int) -> None:
+    def __init__(self, address: str | None, workers: int, in_flight: int | None = None,
+                 scheduler_file: str | None = None,
+                 worker_timeout_s: float = WORKER_TIMEOUT_S) -> None:
+        flag, given = ("--scheduler-file", scheduler_file) if scheduler_file else \
+            ("--scheduler", address)
         try:
             from distributed import Client, LocalCluster
         except ImportError:
-            raise ScenarioError("chiptwin", "--scheduler", address, DASK_HINT) from None
+            raise ScenarioError("chiptwin", flag, given, DASK_HINT) from None
         self.cluster = None
         if address == "local":
             self.cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                         dashboard_address=None)
             self.client = Client(self.cluster)
         else:
+            target = scheduler_address(scheduler_file) if scheduler_file else address
             try:
-                self.client = Client(address, timeout="10s")
+                self.client = Client(target, timeout="10s")
             except OSError as exc:
-                raise ScenarioError("chiptwin", "--scheduler", address,
-                                    f"no Dask scheduler answers there ({exc})") from None
+                raise ScenarioError("chiptwin", flag, given,
+                                    f"no Dask scheduler answers at {target} ({exc})") from None
+        try:
+            self.client.wait_for_workers(1, timeout=worker_timeout_s)
+        except TimeoutError:
+            self.close()
+            raise ScenarioError("chiptwin", "--worker-timeout", worker_timeout_s,
+                                f"no Dask worker joined the scheduler at {given} within "
+                                f"{worker_timeout_s:g} s; start workers, or allow longer: in "
+                                f"(0, {MAX_WORKER_TIMEOUT_S:g}] s") from None
         self.workers = len(self.client.scheduler_info()["workers"]) or workers
-        self.futures: list = []
+        self.in_flight = in_flight or IN_FLIGHT_PER_WORKER * self.workers
+        self.futures: set = set()
 
-    def run(self, tasks: Iterable[RowTask]) -> Iterator[dict[str, Any]]:
+    def run(self, tasks: Iterable[list[RowTask]]) -> Iterator[list[dict[str, Any]]]:
         from distributed import as_completed
 
-        futures = [self.client.submit(run_row, t, pure=False) for t in tasks]
-        self.futures = futures
+        pending = iter(tasks)
+        running = as_completed()
         try:
-            for future in as_completed(futures):
+            while True:
+                while len(self.futures) < self.in_flight:
+                    task = next(pending, None)
+                    if task is None:
+                        break
+                    future = self.client.submit(run_rows, task, pure=False)
+                    self.futures.add(future)
+                    running.add(future)
+                if not self.futures:
+                    return
+                future = next(running)
+                self.futures.discard(future)
                 yield future.result()
         finally:
-            self.client.cancel([f for f in futures if not f.done()])
+            self.client.cancel([f for f in self.futures if not f.done()])
+            self.futures = set()
 
     def close(self) -> None:
         self.client.close()
@@ -183,9 +240,37 @@ class DaskExecutor:
             self.close()
 
 
-def make_executor(workers: int | None = None, scheduler: str | None = None):
-    """The executor for ``--workers N`` (default: every core) and ``--scheduler ADDRESS``."""
+def scheduler_address(path: str) -> str:
+    """The address a Dask scheduler file names (the JSON ``dask scheduler --scheduler-file``
+    and ``Client.write_scheduler_file`` write); a missing or unreadable file is refused naming
+    ``--scheduler-file``."""
+    import json
+
+    try:
+        info = json.loads(open(path, encoding="utf-8").read())
+    except FileNotFoundError:
+        raise ScenarioError("chiptwin", "--scheduler-file", path,
+                            "no such file: a scheduler file is written by `dask scheduler "
+                            "--scheduler-file PATH` (or Client.write_scheduler_file) once the "
+                            "scheduler is up") from None
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise ScenarioError("chiptwin", "--scheduler-file", path,
+                            f'not a Dask scheduler file (JSON with an "address"): {exc}'
+                            ) from None
+    address = info.get("address") if isinstance(info, dict) else None
+    if not isinstance(address, str) or not address:
+        raise ScenarioError("chiptwin", "--scheduler-file", path,
+                            'names no scheduler: a Dask scheduler file is JSON with an "address" '
+                            '(e.g. "tcp://10.0.0.5:8786")')
+    return address
+
+
+def make_executor(workers: int | None = None, scheduler: str | None = None,
+                  in_flight: int | None = None, scheduler_file: str | None = None,
+                  worker_timeout_s: float = WORKER_TIMEOUT_S):
+    """The executor for ``--workers N`` (default: every core), ``--scheduler ADDRESS`` or
+    ``--scheduler-file PATH``, ``--in-flight N`` and ``--worker-timeout S``."""
     n = workers or os.cpu_count() or 1
-    if scheduler:
-        return DaskExecutor(scheduler, n)
-    return SerialExecutor() if n == 1 else PoolExecutor(n)
+    if scheduler or scheduler_file:
+        return DaskExecutor(scheduler, n, in_flight, scheduler_file, worker_timeout_s)
+    return SerialExecutor() if n == 1 else PoolExecutor(n, in_flight)

@@ -266,6 +266,8 @@ def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> st
     lines += [f"Runs: {r['total']} stored ({r['ok']} ok, {r['invalid']} invalid, {r['error']} "
               f"error); {r.get('computed', 0)} computed in {summary['wall_time_s']:.1f} s on "
               f"{summary['executor']['kind']} × {summary['executor']['workers']}.", ""]
+    if "stop_early" in summary:
+        lines += [stop_early_line(summary["stop_early"]), ""]
     lines += ["## Points", "", "The requirement a point fails comes first (– where it fails "
               "none).", "", "| fails | point | status | n | " + " | ".join(_metric_cols(summary))
               + " |", "|---|---|---|---|" + "---|" * len(_metric_cols(summary))]
@@ -282,6 +284,18 @@ def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> st
     lines += ["", "## Plots", ""]
     lines += [f"![{cap}]({name})\n\n*{cap}*\n" for name, cap in plots]
     return "\n".join(lines) + "\n"
+
+
+def stop_early_line(se: dict[str, Any]) -> str:
+    """The runs a grid that stops early saved, and where its points stopped."""
+    looks = se["looks"]
+    stops = ", ".join(f"{k['points_stopped']} at {k['replicates']}" for k in looks
+                      if k["points_stopped"])
+    return (f"Stopped early: {se['runs']} runs of the whole grid's {se['runs_whole_grid']} "
+            f"({se['runs_saved']} saved, {se['runs_saved'] / se['runs_whole_grid']:.0%}); "
+            f"points stopped (count at replicates): {stops}; {len(looks)} looks of "
+            f"{se['batch']}, interim at {100 * looks[0]['confidence']:.4g} %, the last at "
+            f"{100 * looks[-1]['confidence']:.4g} %.")
 
 
 def failing(point: dict) -> str:

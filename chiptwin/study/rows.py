@@ -21,7 +21,7 @@ from chiptwin.config import Scenario, ScenarioError
 from chiptwin.study.metrics import measure
 
 #: Prepared scenes a process keeps (points in flight per process are few: rows of one point are
-#: submitted together).
+#: sent together, in one task of consecutive rows).
 SCENE_CACHE_SIZE = 4
 _CHIP_KEY = zlib.crc32(b"chip")
 
@@ -86,6 +86,12 @@ def _scene(task: RowTask, s: Scenario):
         if s.assay.kind == "pyrosequencing" and s.assay.dna_cv:  # ... and its sites' DNA
             scene = prepare(replace(resolved, scenario=s.scenario))
     return scene, replace(resolved, scenario=s.scenario), choice
+
+
+def run_rows(tasks: list[RowTask]) -> list[dict[str, Any]]:
+    """Run one executor task: a few rows, in order (rows of one point back to back share its
+    prepared scene). Each row is :func:`run_row`'s, so batching changes no number."""
+    return [run_row(t) for t in tasks]
 
 
 def run_row(task: RowTask) -> dict[str, Any]:

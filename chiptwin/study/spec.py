@@ -15,6 +15,7 @@ Layout (``scenarios/studies/*.toml`` are worked examples)::
     reference = { "chip.adc.bits" = 20 }   # the ideal that losses are measured against
     set = { "run.fidelity.photons" = "binned" }  # overrides applied to every point
     search = "grid"                 # or "bisect" on the one budget axis
+    stop_early = false              # true: looks of `batch` replicates; decided points stop
 
     [[study.axis]]                  # axes in order of cost significance: the first is the budget
     key = "chip.adc.bits"
@@ -134,6 +135,7 @@ class Study:
     reference: dict[str, Any] = field(default_factory=dict)
     overrides: dict[str, Any] = field(default_factory=dict)
     search: str = "grid"
+    stop_early: bool = False
     batch: int = 10
     verify: int = 1
     description: str = ""
@@ -185,7 +187,13 @@ STUDY_KEYS: dict[str, str] = {
     "set": "inline table of scenario keys, default {}; overrides applied to every point",
     "search": "\"grid\" (default: every point) or \"bisect\" (the one budget axis, sequential "
               "looks)",
-    "batch": f"integer in [1, {MAX_REPLICATES}], default 10; replicates added per look (bisect)",
+    "stop_early": "true or false, default false; a grid adds replicates in looks of `batch` to "
+                  "every point not yet decided and stops a point once its requirement is "
+                  "decided (the cap: replicates), at per-look levels that keep `confidence` "
+                  "over the looks (chiptwin.detection.stats.look_levels); false runs every "
+                  "replicate, one look (grid only; needs a requirement)",
+    "batch": f"integer in [1, {MAX_REPLICATES}], default 10; replicates added per look (bisect, "
+             "or a grid with stop_early)",
     "verify": "integer in [0, 10], default 1; points above a bisect answer re-checked for "
               "monotonicity",
     "kind": "\"budget\" (default: the cheapest budget per condition) or \"sensitivity\" (the "
@@ -286,7 +294,8 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
         axes=axes, metrics=metrics, requirements=requirements, confidence=confidence,
         vary_chip=err.boolean(st, "vary_chip", False), reference=reference,
         overrides=_table(err, st, "set"), search=err.choice(st, "search", SEARCHES, "grid"),
-        batch=err.integer(st, "batch", 1, MAX_REPLICATES, "replicates added per look (bisect)",
+        stop_early=err.boolean(st, "stop_early", False),
+        batch=err.integer(st, "batch", 1, MAX_REPLICATES, "replicates added per look",
                           default=10),
         verify=err.integer(st, "verify", 0, 10, "points above a bisect answer re-checked",
                            default=1),
@@ -326,6 +335,12 @@ def _check_whole(err: _Errors, study: Study) -> None:
                      "others given = true); have " + str([a.key for a in budget]))
         if not study.requirements:
             err.fail("study.search", "bisect", "needs a [study.requirement] to decide points")
+    if study.stop_early and study.search != "grid":
+        err.fail("study.stop_early", True, "applies to search = \"grid\"; a bisection stops "
+                 "each point at its own looks already")
+    if study.stop_early and not study.requirements:
+        err.fail("study.stop_early", True, "needs a [study.requirement]: a point is stopped "
+                 "once it is decided, and with none nothing is decided")
     # counted, not expanded: a grid too large to hold is refused before it is built
     n_points = math.prod(len(g[0].values) for g in _axis_groups(study.axes))
     n_points *= 2 if study.reference else 1

@@ -1,4 +1,4 @@
-"""The study's database: ``OUT/results.sqlite`` (stdlib sqlite3, WAL, one transaction per row).
+"""The study's database: ``OUT/results.sqlite`` (stdlib sqlite3, WAL, one transaction per task).
 
 Tables:
 
@@ -9,9 +9,10 @@ Tables:
   ``reference``), ``replicate``, ``seed``, ``params`` JSON, ``metrics`` JSON, ``status``
   (``ok``/``invalid``/``error``), ``message``, ``wall_s``. ``(point, replicate)`` is the key.
 
-A row is committed as soon as it arrives, so a killed study (Ctrl-C, ``kill -9``) loses only the
-rows in flight; re-running the same command skips every stored row. A study whose file or base
-scenario changed is refused for resumption, naming what changed.
+The rows of one executor task (a few seconds of rows) are committed together as soon as the task
+arrives, in one transaction: a killed study (Ctrl-C, ``kill -9``) keeps every finished task's rows
+whole and none of a task in flight; re-running the same command skips every stored row. A study
+whose file or base scenario changed is refused for resumption, naming what changed.
 """
 
 from __future__ import annotations
@@ -83,14 +84,21 @@ class Store:
         """``(point, replicate)`` of every stored row."""
         return set(self.db.execute("SELECT point, replicate FROM runs"))
 
-    def add(self, row: dict[str, Any]) -> None:
-        """Store one finished row in its own transaction."""
-        self.db.execute(
-            "INSERT OR IGNORE INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            (row["point"], row["kind"], row["replicate"], row["seed"],
-             json.dumps(row["params"], sort_keys=True),
-             None if row["metrics"] is None else json.dumps(row["metrics"], sort_keys=True),
-             row["status"], row["message"], row["wall_s"]))
+    def add(self, rows: list[dict[str, Any]]) -> None:
+        """Store finished rows (one task's) in one transaction: all of them or, if any is
+        refused, none."""
+        values = [(row["point"], row["kind"], row["replicate"], row["seed"],
+                   json.dumps(row["params"], sort_keys=True),
+                   None if row["metrics"] is None else json.dumps(row["metrics"], sort_keys=True),
+                   row["status"], row["message"], row["wall_s"]) for row in rows]
+        self.db.execute("BEGIN")
+        try:
+            self.db.executemany("INSERT OR IGNORE INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                                values)
+        except BaseException:
+            self.db.execute("ROLLBACK")
+            raise
+        self.db.execute("COMMIT")
 
     def rows(self) -> list[dict[str, Any]]:
         """Every stored row, ordered by point and replicate."""

@@ -1,6 +1,6 @@
 """Dose response and limit of detection: the paper's "minimum detectable analyte concentration".
 
-Salama et al. 2004, §4: combining the kinetics, optics, sensor and post-processing models gives
+Salama et al. 2004, Sec. 4: combining the kinetics, optics, sensor and post-processing models gives
 the minimum detectable analyte amount for a set of system parameters. A scenario asks for it by
 giving each site its own amount (``[sites] amounts_fmol``, 0 = a blank site); this module
 

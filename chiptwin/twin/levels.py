@@ -1,8 +1,9 @@
 """The fidelity levels of each stage, and ``auto``'s choice among them from estimated errors.
 
-A ``[run.fidelity]`` key set to ``"auto"`` is resolved before the run (SPEC "Speed against
-error"). The error of a level is taken against the stage's most faithful level the scene accepts
-(the ladder's reference, :func:`reference_levels`), figure by figure (the ones
+A ``[run.fidelity]`` key set to ``"auto"`` is resolved before the run
+(docs/background/speed-and-error.md). The error of a level is taken against the stage's most
+faithful level the scene accepts (the ladder's reference, :func:`reference_levels`), figure by
+figure (the ones
 ``[run] error_budget`` names, :data:`chiptwin.config.schema.BUDGET_FIGURES`):
 
 * **kinetics** (closed_form vs cascade) and **optics** (na2 and psf vs raytrace where the scene

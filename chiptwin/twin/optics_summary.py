@@ -1,4 +1,4 @@
-"""``summary['optics']``: what the optics did to a scene's light (issue 18).
+"""``summary['optics']``: what the optics did to a scene's light.
 
 Three parts, each cheap (one site, at most a :data:`WINDOW` × :data:`WINDOW` window of pixels):
 

@@ -1,7 +1,7 @@
 """``summary['physical_law']``: what a scene run under the paper's NA² convention would read with
 the physical emitter law.
 
-The paper (Salama et al., Biosensors & Bioelectronics 19, 2004, §3.1) writes the contact
+The paper (Salama et al., Biosensors & Bioelectronics 19, 2004, Sec. 3.1) writes the contact
 collection efficiency as NA², a Lambertian emitter's share of a cone; molecules in solution emit
 isotropically, which through the same stack puts about half that light on the diodes. The
 scenes that reproduce a paper figure keep the convention (their figures are the paper's); each

@@ -80,8 +80,9 @@ def grid_coupling(s: Scenario) -> np.ndarray:
     the array), with the scenario's height, footprint and optics, without the transmission: a
     scalar loss the equalizer's normalisation (each cell at its own gain) removes anyway, and
     which could underflow the matrix. At the raytrace level the equalizer is still designed
-    from the psf level's matrix (the paper's "modelled system PSF", §3.3), while the light
-    follows the traced one: the model's error is then part of what the run measures."""
+    from the psf level's matrix (the paper's "modelled system PSF", Salama et al. 2004, Sec. 3.3),
+    while the light follows the traced one: the model's error is then part of what the run
+    measures."""
     every = replace(s, sites=replace(s.sites, at_pixels="all"),
                     optics=replace(s.optics, transmission=1.0))
     if s.run.fidelity.optics == "raytrace":  # the DSP's model of the PSF is the psf level's

@@ -285,7 +285,7 @@ def chip_figures(s: Scenario, sch: Schedule, chip: ChipRun) -> dict[str, Any]:
     return {
         "frames": sch.n_frames,
         "adc_bits": adc.bits,
-        # the cost of a bit (REFERENCE §8): Schreier FOM at the bits' ideal SNDR
+        # the cost of a bit (Murmann's ADC survey): Schreier FOM at the bits' ideal SNDR
         "adc_fom_schreier_db": adc.fom_schreier_db,
         "adc_energy_per_conversion_j": adc.energy_per_conversion_J,
         "adc_energy_per_frame_j": energy_j,

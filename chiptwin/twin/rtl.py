@@ -16,7 +16,7 @@ blocks of the program's stages (kinetics, fir8) that :class:`~chiptwin.dsp.progr
 ProgramPipeline` runs at this level.
 
 It lives in the twin, not in ``chiptwin.dsp``: ``rtl_ref`` imports the DSP it verifies, so the
-DSP importing it back was a circle (issue 19's drawing showed the one arrow up).
+DSP importing it back was a circle (the layer drawing showed the one arrow up).
 """
 
 from __future__ import annotations

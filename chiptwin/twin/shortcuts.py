@@ -39,11 +39,15 @@ carried ones are restored at the ``expected`` level (:func:`restore`):
 The summary can say so: :attr:`~chiptwin.twin.scene.ChainOutput.carried_pixels` counts them.
 
 Measured (``benchmarks/bench_shortcuts.py``, warm, simulate + detect, 2-core machine shared with
-other jobs): ``pyro_array_256`` draws 4,103 of 65,536 pixels, 19.9–22.8 s → 1.6–2.3 s
-(9.9–12.4×), its figures within the full path's seed-to-seed spread (median |Δ signal| 0.85 σ
-against 0.84 σ, fraction called right 0.005 against 0.004); its median power SNR over 8 seeds
-44.17 ± 0.28 against the full path's 44.20 ± 0.29; ``pyro_1fmol`` 44 of 128, 1.5×;
-``pyro_paper_yield_fast`` 107 of 128, 1.1×.
+other jobs) on the scenes as they were before they were built as the chip is (the NA² emitter law,
+an ideal converter, no top surface: the light stays near its sites): ``pyro_array_256`` draws 4,103
+of 65,536 pixels, 19.9–22.8 s → 1.6–2.3 s (9.9–12.4×), its figures within the full path's
+seed-to-seed spread (median |Δ signal| 0.85 σ against 0.84 σ, fraction called right 0.005 against
+0.004); its median power SNR over 8 seeds 44.17 ± 0.28 against the full path's 44.20 ± 0.29;
+``pyro_1fmol`` 44 of 128, 1.5×; ``pyro_paper_yield_fast`` 107 of 128, 1.1×. Under the flow cell the
+bundled scene states (1 mm glass lid), the lid returns a third of each site's light spread over ≈
+8,400 pixels: only 1,114 of ``pyro_array_256``'s 65,536 pixels stay dark over its 25 flows, and the
+shortcut saves nothing there (which is why the scene leaves it off).
 """
 
 from __future__ import annotations

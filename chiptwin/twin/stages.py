@@ -227,9 +227,9 @@ def _lens_efficiency(s: Scenario) -> float:
     return float(eff) * o.transmission
 
 
-#: Index of the medium when a scenario states no layers (water/buffer at 560 nm, REFERENCE §2):
-#: it enters nothing at na2 and psf (one medium: the index cancels), only the raytrace level's
-#: silicon interface when ``silicon_n`` is given.
+#: Index of the medium when a scenario states no layers (water/buffer at 560 nm, textbook;
+#: sources.md O11): it enters nothing at na2 and psf (one medium: the index cancels), only the
+#: raytrace level's silicon interface when ``silicon_n`` is given.
 DEFAULT_MEDIUM_N = 1.33
 
 

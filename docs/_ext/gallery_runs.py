@@ -26,6 +26,7 @@ SHORTER: dict[str, list[str]] = {
     "pyro_paper_yield": ["assay.n_flows=8", "run.duration_s=500.0"],
     "pyro_paper_yield_fast": ["assay.n_flows=8", "assay.flow_period_s=4.0",
                               "run.duration_s=34.0"],
+    "pyro_long_read": ["assay.n_flows=32", "run.duration_s=1940.0"],
 }
 
 #: ``set`` keys of the tiny studies: the first 8 flows of pyro_1fmol (the key's four 1-mers,
@@ -100,6 +101,14 @@ def _lod(st: dict) -> None:
     st["axis"][0]["n"] = 5
 
 
+def _read_length(st: dict) -> None:
+    st.update(replicates=1, vary_chip=False)
+    st.setdefault("set", {}).update({"assay.n_flows": 24, "run.duration_s": 1460.0})
+    st["axis"] = [{"key": "assay.dna_fmol", "values": [0.003, 0.03, 0.3]}]
+    st["metric"] = [{"name": "q20_read_length"}, {"name": "read_accuracy"}]
+    st["requirement"] = {"q20_read_length": ">= 10", "confidence": 0.95}
+
+
 #: How each study is shrunk, and the keys the page names.
 TINY = {
     "adc_bits_pyro": (_adc_bits, "10 … 16 bits at 1 fmol, ideal comparator, 2 replicates, "
@@ -107,6 +116,10 @@ TINY = {
     "frame_memory": (_frame_memory, "its whole grid, 2 replicates, 8 flows"),
     "lod_pyro": (_lod, "5 amounts on a grid instead of 13 searched by bisection, 4 replicates "
                  "a point instead of up to 300"),
+    "read_length_pyro": (_read_length, "3 amounts instead of 4, 13 bits only, one chip a point "
+                         "instead of 3, 24 flows instead of 400 (a read can then be at most "
+                         "≈ 12 bases long, so the requirement line is drawn at 10 bases "
+                         "instead of 200)"),
 }
 
 

@@ -1,6 +1,6 @@
 """The ``emva1288`` reference implementation (PyPI 1.0.2, the test extra) run on the bench's images.
 
-NumPy 2 shim: emva1288 1.0.2 calls ``np.asfarray``, which NumPy 2.0 removed (REFERENCE §7). While
+NumPy 2 shim: emva1288 1.0.2 calls ``np.asfarray``, which NumPy 2.0 removed (sources.md A5). While
 it runs, :func:`numpy_shim` puts back ``np.asfarray(a, dtype=float64) = np.asarray(a, dtype)``
 (NumPy 1's definition) and takes it away again afterwards, so nothing else sees it.
 

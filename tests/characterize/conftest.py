@@ -8,7 +8,8 @@
 * ``adc10``: a 64 × 64 chip with a 10-bit ADC and 2 DN read noise per sample (10 fF node,
   61 e⁻/DN), M = 1.
 * ``ccd``: a cooled CCD-like chip, 64 × 64 pixels of 24 µm, −40 °C, 16-bit ADC, 10 e⁻ read noise,
-  3e5 e⁻ full well, M = 1 (the cooled camera of the paper's CCD experiment, REFERENCE §4).
+  3e5 e⁻ full well, M = 1 (the cooled camera of the paper's CCD experiment, sources.md
+  P15).
 * ``dark``: the bundled ``snr10_requirement`` chip: 0.36 nA/cm² of dark current over 10 s
   exposures (a third of the well is dark charge), no PRNU or DSNU, M = 2.
 """

@@ -85,7 +85,7 @@ def random_sine(sine, s, rng):
 
 @pytest.mark.parametrize("bits", [8, 10, 12])
 def test_ideal_sine_sinad_enob(bits):
-    """Validation (textbook, REFERENCE §8): an ideal N-bit converter with a coherently sampled
+    """Validation (textbook; IEEE Std 1241): an ideal N-bit converter with a coherently sampled
     sine at 0.999 of full scale (−0.009 dB) gives SINAD = 6.02 N + 1.76 dB within 0.1 dB and
     ENOB = N within 0.02 bit, by the three- and the four-parameter fit."""
     rec = a.bench_records(bits, V_MIN, V_MAX, 1 << 14)

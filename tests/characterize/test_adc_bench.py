@@ -93,7 +93,7 @@ def test_injected_table_and_noise_round_trip(tmp_path):
 
 
 def test_ideal_converter():
-    """Validation (textbook, REFERENCE §8): the ideal 10-bit converter of the scenario gives
+    """Validation (textbook; IEEE Std 1241): the ideal 10-bit converter of the scenario gives
     SINAD = 6.02 N + 1.76 dB within 0.1 dB and ENOB = N within 0.02 bit on every converter;
     every DNL within 4 stated σ of 0 (the histogram test's bound) and below 0.1 LSB; no
     missing code; offset and gain zero within 4σ; transition noise unresolved (no noise)."""

@@ -3,8 +3,8 @@ same images: every figure within 1 %.
 
 Both evaluations get identical integer images (the CMS frame × M, units of DN/M) and the same
 saturation index: ``emva1288``'s default index is the first local maximum of σ²_y seen from the
-top of the series, which on these chips is the last point, deep in the clipped plateau (REFERENCE
-§7), while the standard defines saturation at the maximum of the variance; that difference is
+top of the series, which on these chips is the last point, deep in the clipped plateau (sources.md
+A5), while the standard defines saturation at the maximum of the variance; that difference is
 tested separately. NumPy 2 needs the shim of ``_emva.numpy_shim``.
 
 Known differences: ``μ_p.min`` (and μ_e.min, DR) — Release 4's exact root

@@ -1,4 +1,4 @@
-"""The run at chip scale (issue 13): memory flat in frames, numbers independent of the thread
+"""The run at chip scale: memory flat in frames, numbers independent of the thread
 count, blocks of frames kept or made giving the same numbers, ``save_frames`` written as read, and
 the sparse coupling of many sites against the dense matrix."""
 

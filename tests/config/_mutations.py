@@ -1,4 +1,4 @@
-"""Mutations of the bundled scenarios, one key at a time (issue 11, part 2).
+"""Mutations of the bundled scenarios, one key at a time.
 
 Shared by ``test_mutations.py`` and the one-off count script (``python -m
 tests.config._mutations``, which runs every mutation and prints the counts by outcome). A mutation

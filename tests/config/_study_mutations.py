@@ -1,4 +1,4 @@
-"""Mutations of the bundled studies, one key at a time (issue 22, item 5).
+"""Mutations of the bundled studies, one key at a time.
 
 The study-file twin of :mod:`tests.config._mutations`: every key of every bundled study
 (``[study]``'s keys, each ``[[study.axis]]`` and ``[[study.metric]]`` entry, each key of the
@@ -51,7 +51,7 @@ def paths_of(raw: dict[str, Any]) -> list[Path_]:
                 walk(v, (*prefix, k))
 
     walk(raw["study"], ("study",))
-    for optional in ("description", "reference", "set", "search", "batch", "verify",
+    for optional in ("description", "reference", "set", "search", "stop_early", "batch", "verify",
                      "vary_chip"):  # keys a study may hold but these do not
         if optional not in raw["study"]:
             out.append(("study", optional))

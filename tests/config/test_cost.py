@@ -1,4 +1,4 @@
-"""The time and disk estimate before a run (issue 22, item 3): its terms count what the run does,
+"""The time and disk estimate before a run: its terms count what the run does,
 a run past ``[run] max_wall_s`` or past the free disk is refused naming the key that raises the
 limit, and the estimate is within :data:`~chiptwin.config.cost.ESTIMATE_FACTOR` of the wall
 time measured on two bundled scenes (a factor, never a timing bound that could flake)."""

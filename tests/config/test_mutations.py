@@ -1,6 +1,6 @@
 """Mutated bundled scenarios exit 0 or 2 with one line and nothing written, never a traceback.
 
-Issue 11, part 2: every key of every bundled scenario is set, one at a time, to NaN, ±inf, −1, 0,
+Every key of every bundled scenario is set, one at a time, to NaN, ±inf, −1, 0,
 1e±300, 2^63, wrong types, the ends of its declared range (and just past them), or removed
 (:mod:`tests.config._mutations`). Three tests:
 
@@ -222,7 +222,7 @@ def test_valid_mutation_runs_shortened_or_exits_2_writing_nothing(tmp_path_facto
 
 # --- the issue's crashes, one by one ----------------------------------------------------------
 
-#: Issue 11 part 2: at validation, times far beyond any experiment or below one tick
+#: At validation, times far beyond any experiment or below one tick
 #: (OverflowError / ZeroDivisionError in s_to_ticks).
 AT_VALIDATION = [
     (scenario, key, value)

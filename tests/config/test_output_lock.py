@@ -1,4 +1,4 @@
-"""One writer per output folder (issue 22, item 2): ``<out>.lock`` held for a command's life."""
+"""One writer per output folder: ``<out>.lock`` held for a command's life."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Mutated bundled studies end in a study or a clean error, never a traceback (issue 22, item 5).
+"""Mutated bundled studies end in a study or a clean error, never a traceback.
 
 The sweep of :mod:`tests.config._study_mutations`: every key of every bundled study (each
 ``[study]`` key, each ``[[study.axis]]`` and ``[[study.metric]]`` entry and their keys, each key

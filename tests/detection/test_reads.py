@@ -108,3 +108,30 @@ def test_noisy_reads_stay_within_the_callers_range():
         read = reads.call_dephased(y, flows, noise)
         assert read.calls.max() <= reads.MAX_CALL
         assert read.base_error().size == read.calls.sum()
+
+
+@pytest.mark.parametrize("n", [1, 5, 8, 16, 17, 40])
+def test_local_inflation_is_the_clipped_window_mean_at_every_read_length(n):
+    """Each flow's factor is the mean of z² over the flows within RESIDUAL_HALF_WINDOW of it,
+    clipped to the read (a direct loop as the oracle); reads shorter than the 17-flow window
+    once got 17 factors (NumPy's convolve mode="same") and the dephasing caller crashed."""
+    rng = np.random.default_rng(n)
+    y, signal = rng.uniform(0, 3, n), rng.uniform(0.1, 3, n)
+    noise = reads.FlowNoise(0.01, 0.004, 0.001)
+    z2 = (y - signal) ** 2 / noise.var(signal)
+    h = reads.RESIDUAL_HALF_WINDOW
+    oracle = [max(1.0, z2[max(0, i - h):i + h + 1].mean()) for i in range(n)]
+    got = reads.local_inflation(y, signal, noise)
+    assert got.shape == (n,)
+    np.testing.assert_allclose(got, oracle, rtol=1e-12)
+
+
+def test_dephasing_caller_reads_eight_flows():
+    """The dephasing caller on a read of 8 flows (a shortened run): a call and a posterior for
+    each flow, the last TAIL_FLOWS left uncalled as on any read."""
+    flows = phasing.flow_indices("TACG", 8)
+    y = np.array([1.0, 0.02, 1.01, 0.0, 0.97, 0.05, 2.02, 0.01])
+    read = reads.call_dephased(y, flows, reads.FlowNoise(0.004, 0.002, 0.0))
+    assert read.calls.shape == (8,) and read.posterior.shape == (8, reads.MAX_CALL + 1)
+    np.testing.assert_allclose(read.posterior.sum(axis=1), 1.0, rtol=1e-12)
+    assert read.n_called == max(8 - reads.TAIL_FLOWS, 0)

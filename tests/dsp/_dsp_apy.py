@@ -1,10 +1,10 @@
 """The DSP routines written with APyTypes 0.5.1: an independent bit-exact oracle.
 
-Used exactly as REFERENCE §5 says: floats are converted with enough fractional bits to be exact
-(``from_float`` rounds ties away and wraps, so it must never round) and only then ``cast`` with
-the mode under test. APyTypes has no unsigned type: unsigned codes enter as signed words one bit
-wider (the same values), and every register *cast* here is signed. APyTypes has no SAT_SYM; that
-mode is checked against the Fraction reference instead.
+Used as the fixed-point conventions require (sources.md F5): floats are converted with enough
+fractional bits to be exact (``from_float`` rounds ties away and wraps, so it must never round) and
+only then ``cast`` with the mode under test. APyTypes has no unsigned type: unsigned codes enter as
+signed words one bit wider (the same values), and every register *cast* here is signed. APyTypes has
+no SAT_SYM; that mode is checked against the Fraction reference instead.
 
 APyTypes 0.5.1 defect found here: casting a *64-bit* source whose rounding carries past the top
 (e.g. code 2^63 − 1 with 40 fractional bits, RND, SAT, to 24 bits) returns the most negative code

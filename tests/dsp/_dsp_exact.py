@@ -1,8 +1,8 @@
 """Slow, obvious references for the fixed-point DSP: Python integers and ``fractions.Fraction``.
 
 Written independently of ``chiptwin.dsp.fixed`` (no shared helper) from the definitions in
-REFERENCE §5, so that a test comparing the two compares two implementations, not one with itself.
-Every routine here works one value at a time; use small arrays.
+docs/background/sources.md F1–F4, so that a test comparing the two compares two implementations, not
+one with itself. Every routine here works one value at a time; use small arrays.
 """
 
 from __future__ import annotations

@@ -123,7 +123,8 @@ def test_requantize_is_exact(data, rnd: str, ovf: str) -> None:
 
 
 def _grown(fa: Fmt, fb: Fmt, op: str) -> tuple[bool, int, int]:
-    """Expected result format (signed, int_bits, frac_bits) by REFERENCE §5, written out."""
+    """Expected result format (signed, int_bits, frac_bits) by fixed-point word growth (sources.md
+    F4), written out."""
     signed = fa.signed or fb.signed or op == "sub"
     ia = fa.int_bits + (1 if signed and not fa.signed else 0)
     ib = fb.int_bits + (1 if signed and not fb.signed else 0)

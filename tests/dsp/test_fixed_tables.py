@@ -1,7 +1,8 @@
 """Unit: test-vector tables of the fixed-point core, every rounding and overflow mode.
 
 Ties of both signs, ±full scale, saturation, wrap, −1 × −1 in Q1.15, the 64-bit limits, and zero /
-full-scale ADC codes. Expected values are written out by hand from the definitions in REFERENCE §5.
+full-scale ADC codes. Expected values are written out by hand from the definitions in
+docs/background/sources.md (Fixed point).
 """
 
 from __future__ import annotations

@@ -129,7 +129,7 @@ def test_params_validation_names_field_value_and_range():
 
 
 def test_defaults_reproduce_the_papers_rate_constants():
-    """REFERENCE §1: k_t = 1 s⁻¹, k_a = 0.05 s⁻¹, α = 0.88 → 17.6 photons per base."""
+    """sources.md Kinetics: k_t = 1 s⁻¹, k_a = 0.05 s⁻¹, α = 0.88 → 17.6 photons per base."""
     rates = CascadeParams().linear_rates()
     assert rates["turnover_per_s"] == pytest.approx(1.0, rel=1e-12)
     assert rates["apyrase_atp_per_s"] == pytest.approx(0.05, rel=1e-12)
@@ -237,7 +237,7 @@ def test_per_site_enzyme_amounts_are_used():
 
 
 def test_product_inhibition_dims_the_light(run20):
-    """L-AMP (K_i 3.8 nM, REFERENCE §1) formed in 10 % of turnovers inhibits luciferase: the
+    """L-AMP (K_i 3.8 nM, sources.md Kinetics) formed in 10 % of turnovers inhibits luciferase: the
     later flows of the inhibited run give less light per incorporated base than the first."""
     per_base = run20.flow_photons()[0] / np.maximum(run20.incorporations()[0], 1e-9)
     lit = run20.incorporations()[0] > 0.5

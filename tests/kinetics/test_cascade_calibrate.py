@@ -18,7 +18,7 @@ from chiptwin.kinetics.cascade_params import CascadeParams
 
 
 def test_yield_in_the_linear_regime_is_eq19_integrated():
-    """REFERENCE §1: α k_t / k_a = 17.6 photons per base (1 amol in 1 nL: 1 nM ≪ every K_m,
+    """sources.md Kinetics: α k_t / k_a = 17.6 photons per base (1 amol in 1 nL: 1 nM ≪ every K_m,
     dispensed nucleotide not occupying apyrase)."""
     p = replace(CascadeParams(), apyrase_km_dntp_M=1.0, apyrase_kcat_dntp_per_s=5e5)
     assert photon_yield(p, dna_mol=1e-18) == pytest.approx(17.6, rel=2e-3)
@@ -39,8 +39,8 @@ def test_light_curve_fit_recovers_known_constants():
 
 
 def test_yield_fit_reaches_the_measured_yield():
-    """Ronaghi's ≈ 0.01 photon per base (REFERENCE §1) at 1 fmol in 1 nL: luciferase is the free
-    constant; the linear regime predicts [L] = 0.01 k_a K_m / (α k_cat sat) ≈ 6.3e-8 M."""
+    """Ronaghi's ≈ 0.01 photon per base (sources.md Kinetics) at 1 fmol in 1 nL: luciferase is the
+    free constant; the linear regime predicts [L] = 0.01 k_a K_m / (α k_cat sat) ≈ 6.3e-8 M."""
     p = CascadeParams()
     result = fit_photon_yield(RONAGHI_PHOTONS_PER_INCORPORATION, p)
     assert result.success and result.residual < 1e-9

@@ -1,7 +1,8 @@
 """Closed-form kinetics (Salama et al., Biosens. Bioelectron. 19, 2004, eqs. 2–19).
 
-Validation tests reproduce the numbers of REFERENCE.md §1; unit tests check that each photon count
-is the integral of its rate and that the functions stay finite at the extremes.
+Validation tests reproduce the numbers of docs/background/sources.md (Kinetics); unit tests check
+that each photon count is the integral of its rate and that the functions stay finite at the
+extremes.
 """
 
 from __future__ import annotations
@@ -18,11 +19,11 @@ from chiptwin.kinetics import closed_form as cf
 FMOL = 1e-15
 
 
-# --- validation against REFERENCE §1 -------------------------------------------------------------
+# --- validation against sources.md Kinetics -------------------------------------------------------
 
 
 def test_prefactor_glow_is_5p3e22():
-    """Eqs. 12–13 prefactor 5.3e22 = N_A·0.88·0.1 (REFERENCE §1 "prefactors decoded").
+    """Eqs. 12–13 prefactor 5.3e22 = N_A·0.88·0.1 (sources.md K7).
 
     Tolerance: the paper prints two significant digits, so |x − 5.3e22| ≤ 0.05e22; the exact
     product is also checked to 1e-12.
@@ -33,7 +34,8 @@ def test_prefactor_glow_is_5p3e22():
 
 
 def test_prefactor_flash_is_5p3e23():
-    """Eq. 19 prefactor 5.3e23 = N_A·0.88·1.0 (REFERENCE §1). Tolerance: two printed digits."""
+    """Eq. 19 prefactor 5.3e23 = N_A·0.88·1.0 (sources.md Kinetics). Tolerance: two printed
+    digits."""
     value = cf.emission_prefactor(alpha=0.88, turnover_per_s=1.0)
     assert value == pytest.approx(5.3e23, abs=0.05e23)
     assert value == pytest.approx(N_A * 0.88, rel=1e-12)
@@ -47,8 +49,8 @@ def test_defaults_give_the_papers_prefactors():
 
 
 def test_photons_per_incorporation_is_17p6():
-    """α·k_t/k_a = 0.88·1/0.05 = 17.6 photons per incorporated base (REFERENCE §1, derived from
-    eq. 19). Tolerance: rel 1e-12 (exact arithmetic)."""
+    """α·k_t/k_a = 0.88·1/0.05 = 17.6 photons per incorporated base (sources.md Kinetics, derived
+    from eq. 19). Tolerance: rel 1e-12 (exact arithmetic)."""
     assert cf.incorporation_yield() == pytest.approx(17.6, rel=1e-12)
     total = cf.pyrosequencing_photons(1e6, 1.0 / N_A)  # one strand, T → ∞ (e^-5e4 = 0)
     assert total == pytest.approx(17.6, rel=1e-12)
@@ -56,7 +58,7 @@ def test_photons_per_incorporation_is_17p6():
 
 def test_one_fmol_pyrosequencing_by_eq19():
     """1 fmol by eq. 19: peak 5.3e8 photons/s, 1.06e10 photons in total, 39 % in the first 10 s
-    (REFERENCE §1 "1 fmol pyrosequencing by eq. 19", derived). Tolerance: the printed digits
+    (sources.md K10, derived). Tolerance: the printed digits
     (±0.05e8, ±0.005e10, ±0.5 %); exact values to 1e-12."""
     peak = cf.pyrosequencing_rate(0.0, FMOL)
     total = cf.pyrosequencing_photons(1e4, FMOL)
@@ -69,9 +71,9 @@ def test_one_fmol_pyrosequencing_by_eq19():
 
 
 def test_ronaghi_yield_gives_0p01_photon_per_incorporation():
-    """With the measured yield (REFERENCE §1, Ronaghi 2001: ≈ 0.01 photon per ATP), 1 fmol gives
-    ≈ 6e6 photons in total, the figure of REFERENCE §4's open question. Tolerance: rel 1e-12 for
-    the exact product, 5 % for the quoted 6e6."""
+    """With the measured yield (Ronaghi, Genome Res. 11, 2001: ≈ 0.01 photon per ATP), 1 fmol gives
+    ≈ 6e6 photons in total, the figure of the open question in sources.md P17. Tolerance: rel 1e-12
+    for the exact product, 5 % for the quoted 6e6."""
     total = cf.pyrosequencing_photons(1e4, FMOL, photons_per_incorporation=0.01)
     assert total == pytest.approx(FMOL * N_A * 0.01, rel=1e-12)
     assert total == pytest.approx(6e6, rel=0.05)
@@ -125,7 +127,7 @@ def test_counts_are_integrals_of_rates(t_int):
 
 
 def test_atp_assay_gives_alpha_photons_per_atp():
-    """An ATP assay yields α photons per ATP in total (REFERENCE §1 "photons per event")."""
+    """An ATP assay yields α photons per ATP in total (sources.md K8)."""
     for k_t in (cf.ATP_TURNOVER_GLOW_PER_S, cf.ATP_TURNOVER_FLASH_PER_S):
         assert cf.atp_assay_photons(1e5, 1.0 / N_A, k_t) == pytest.approx(0.88, rel=1e-12)
 

@@ -1,4 +1,4 @@
-"""One kinetics evaluation shared by identical sites (issue 20): bit for bit the per-site source."""
+"""One kinetics evaluation shared by identical sites: bit for bit the per-site source."""
 
 from __future__ import annotations
 

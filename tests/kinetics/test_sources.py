@@ -48,7 +48,8 @@ def test_pyrosequencing_flows_are_pulses_scaled_by_homopolymer_length():
 
 
 def test_pyrosequencing_with_measured_yield_integrates_to_n_n_dna_y():
-    """Amplitude n·N_DNA·Y·k_a, so the flow's light integrates to n·N_DNA·Y (REFERENCE §1)."""
+    """Amplitude n·N_DNA·Y·k_a, so the flow's light integrates to n·N_DNA·Y (sources.md
+    Kinetics)."""
     train = sources.pyrosequencing([1e-15], [[2, 1]], 100.0, photons_per_incorporation=0.01)
     np.testing.assert_allclose(train.total_photons(), [3 * 1e-15 * N_A * 0.01], rtol=1e-12)
     np.testing.assert_allclose(train.amplitude_per_s, np.array([2, 1]) * 1e-15 * N_A * 0.01 * 0.05)

@@ -1,4 +1,4 @@
-"""Collection efficiency of a disc aperture, both conventions (REFERENCE §2)."""
+"""Collection efficiency of a disc aperture, both conventions (sources.md Optics)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ LAMB, ISO = col.LAMBERTIAN_NA2, col.ISOTROPIC
 
 
 def test_camera_lens_lambertian_is_1p54_percent():
-    """Camera, D = 0.5 f, U = 2 f: NA² = 1.54 % (REFERENCE §2; the paper quotes 1.6 %).
+    """Camera, D = 0.5 f, U = 2 f: NA² = 1.54 % (sources.md Optics; the paper quotes 1.6 %).
     Tolerance: the printed digits, ±0.005 %; exact value 1/65 to 1e-12."""
     eff = col.collection_efficiency(0.5, 2.0, convention=LAMB)
     assert eff == pytest.approx(0.0154, abs=0.00005)
@@ -19,7 +19,7 @@ def test_camera_lens_lambertian_is_1p54_percent():
 
 
 def test_contact_lambertian_is_91p7_percent():
-    """Contact, D = 100 µm, U = 15 µm: NA² = 91.7 % (REFERENCE §2; the paper quotes 91 %).
+    """Contact, D = 100 µm, U = 15 µm: NA² = 91.7 % (sources.md Optics; the paper quotes 91 %).
     Tolerance: ±0.05 %; exact value (50²)/(50²+15²) to 1e-12."""
     eff = col.collection_efficiency(100.0, 15.0, convention=LAMB)
     assert eff == pytest.approx(0.917, abs=0.0005)
@@ -28,7 +28,7 @@ def test_contact_lambertian_is_91p7_percent():
 
 def test_isotropic_versions_are_0p39_and_35p6_percent():
     """The same two geometries for an isotropic emitter, (1 − cos θ)/2: 0.39 % and 35.6 %
-    (REFERENCE §2, derived). Tolerance: the printed digits (±0.005 %, ±0.05 %)."""
+    (derived; sources.md O4). Tolerance: the printed digits (±0.005 %, ±0.05 %)."""
     camera = col.collection_efficiency(0.5, 2.0, convention=ISO)
     contact = col.collection_efficiency(100.0, 15.0, convention=ISO)
     assert camera == pytest.approx(0.0039, abs=0.00005)

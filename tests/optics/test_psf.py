@@ -13,7 +13,7 @@ CONVENTIONS = col.CONVENTIONS
 
 
 def irradiance(r2: float, u: float, convention: str) -> float:
-    """The plane irradiance per emitted photon, written out as in REFERENCE §2."""
+    """The plane irradiance per emitted photon, written out as in sources.md Optics."""
     if convention == col.ISOTROPIC:
         return u / (r2 + u * u) ** 1.5 / (4 * np.pi)
     return u * u / (r2 + u * u) ** 2 / np.pi
@@ -228,7 +228,7 @@ def test_coupling_errors(override, match):
 
 
 def test_na2_apertures():
-    """'inscribed_disc' is the paper's 91.7 % (REFERENCE §2); 'rectangle' is the centred point
+    """'inscribed_disc' is the paper's 91.7 % (sources.md Optics); 'rectangle' is the centred point
     diagonal of the psf level; 'equal_area_disc' sits between the discs."""
     kw = {"diode_w_um": 100.0, "diode_h_um": 100.0, "height_um": 15.0}
     paper = psf.diode_collection_efficiency(**kw, convention="lambertian_na2",

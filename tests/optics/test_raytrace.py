@@ -1,10 +1,10 @@
 """The ``raytrace`` optics level: validation against closed forms, equivalence with ``psf``.
 
-Kinds (STYLE 8): validation (REFERENCE §2's analytic fractions, within 4 standard errors),
+Kinds: validation (the analytic fractions of sources.md O7–O10, within 4 standard errors),
 equivalence (a homogeneous stack against :func:`coupling_psf`, pixel by pixel within 4 SE; the
 optiland 0.6.3 non-sequential engine on one slab), unit (bookkeeping, seeds, the ray-count rule,
 the cache, validation messages). The closed forms are computed here by quadrature, the slow
-obvious reference of the kernel (STYLE 7).
+obvious reference of the kernel.
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ def _single(n1: float, n2: float) -> float:
 
 
 def _slab(n1: float, n2: float, n3: float, average: bool) -> float:
-    """Incoherent slab: ½∫ T12·T23 / (1 − R21·R23) sinθ dθ (REFERENCE §2).
+    """Incoherent slab: ½∫ T12·T23 / (1 − R21·R23) sinθ dθ (sources.md Optics).
 
     ``average=False``: per polarisation, then the mean of s and p (they never mix in planar
     layers); ``average=True``: with the unpolarised mean R at each interface.
@@ -82,7 +82,7 @@ def _within(value: float, expected: float, n: int) -> None:
 @pytest.mark.parametrize("n1, n2, published", [(1.33, 1.5, 0.4403), (1.5, 1.0, 0.1148),
                                                (1.33, 1.46, 0.4466), (1.33, 1.0, 0.1577)])
 def test_one_interface_matches_reference(n1, n2, published):
-    """REFERENCE §2: isotropic emitter through one interface into an infinite plane,
+    """sources.md Optics: isotropic emitter through one interface into an infinite plane,
     unpolarised Fresnel, TIR cone included: 1.33→1.5 0.4403, 1.5→1.0 0.1148, 1.33→1.46 0.4466,
     1.33→1.0 0.1577. Light reflected at the interface goes up through the site plane and never
     returns, so the multiple-reflection tracer must give the single-pass value: within 4 SE."""
@@ -95,7 +95,7 @@ def test_one_interface_matches_reference(n1, n2, published):
 @pytest.mark.parametrize("n3", [1.0, 4.3])
 @pytest.mark.parametrize("polarisation", ["random", "average"])
 def test_slab_multiple_reflections(n3, polarisation):
-    """REFERENCE §2: a slab (water 1.33 | glass 1.5 | n3) transmits ½∫ T12·T23/(1 − R21·R23)
+    """sources.md Optics: a slab (water 1.33 | glass 1.5 | n3) transmits ½∫ T12·T23/(1 − R21·R23)
     sinθ dθ (incoherent: the 2 µm glass traced as rays, thin_film_um = 0); n3 = 1.0 adds TIR
     at the bottom (light trapped, bouncing, leaving up).
     ``random`` against the per-polarisation sum, ``average`` against the mean-R sum: 4 SE."""
@@ -126,8 +126,8 @@ def test_beer_lambert_layer():
 
 
 def test_absorbing_well_is_the_solid_angle_of_its_floor():
-    """REFERENCE §2: a square of half-side a = 2 at distance d = 1 subtends 0.29517 of 4π. A point
-    site in a 4 µm absorbing well 1 µm above index-matched silicon: transmitted 0.29517, walls
+    """sources.md Optics: a square of half-side a = 2 at distance d = 1 subtends 0.29517 of 4π. A
+    point site in a 4 µm absorbing well 1 µm above index-matched silicon: transmitted 0.29517, walls
     the rest of the lower half."""
     n = 300_000
     r = _plane(Stack((Layer("water", 1.33, 1.0),), silicon_n=1.33), n, well_side_um=4.0)
@@ -196,7 +196,7 @@ def test_faceplate_equals_psf(emitter):
 
 
 def test_optiland_cross_check():
-    """optiland 0.6.3's non-sequential engine (the tracer behind REFERENCE §2's numbers) on a
+    """optiland 0.6.3's non-sequential engine (the tracer behind sources.md O17–O19) on a
     slab water 1.33 | 2 µm glass 1.5 | silicon 4.3, isotropic point source, mean-R Fresnel (its
     only mode): transmitted fractions agree within 4 combined SE."""
     require_module("optiland.nonsequential", "raytrace")

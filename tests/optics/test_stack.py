@@ -1,8 +1,8 @@
-"""The psf level through a planar stack, and the faceplate (issue 18).
+"""The psf level through a planar stack, and the faceplate.
 
-Validation against REFERENCE §2's analytic plane fractions; equivalence with today's closed form
-(bit-exact when routed, within 1e-6 of the plane fraction on the general path); quadrature
-references for slabs and absorption; energy; faceplate limits; the cross-talk trend.
+Validation against the analytic plane fractions of sources.md O7–O10; equivalence with today's
+closed form (bit-exact when routed, within 1e-6 of the plane fraction on the general path);
+quadrature references for slabs and absorption; energy; faceplate limits; the cross-talk trend.
 """
 
 from __future__ import annotations
@@ -48,13 +48,13 @@ def t_unpol(n1, n2, theta1):
     return 0.5 * sum(t_pol(n1, n2, theta1))
 
 
-# --- validation: REFERENCE §2 ------------------------------------------------------------------
+# --- validation: sources.md Optics ----------------------------------------------------------------
 
 @pytest.mark.parametrize(("n1", "n2", "want"), [
     (1.33, 1.5, 0.4403), (1.5, 1.0, 0.1148), (1.33, 1.46, 0.4466), (1.5, 1.33, 0.2574),
     (1.33, 1.0, 0.1577), (1.0, 1.5, 0.3994), (1.46, 2.0, 0.4099), (1.33, 3.9, 0.3301)])
 def test_one_interface_plane_fraction_matches_reference(n1, n2, want):
-    """REFERENCE §2: ½∫T(θ) sinθ dθ through one interface, unpolarised Fresnel, TIR included;
+    """sources.md Optics: ½∫T(θ) sinθ dθ through one interface, unpolarised Fresnel, TIR included;
     4 decimals as printed, and the huge-diode coupling equals it (1e-9)."""
     got = sp.plane_fraction_stack(interface(n1, n2), "isotropic")
     assert got == pytest.approx(want, abs=5e-5)
@@ -72,7 +72,7 @@ def test_fresnel_normal_incidence():
 def test_slab_single_pass_and_incoherent_sum_against_quadrature():
     """Water | 20 µm glass | air: single pass ½∫ ½(Tₛ12·Tₛ23 + Tₚ12·Tₚ23) sinθ dθ (s and p stay
     apart in a planar stack: the product of unpolarised averages is lower), and the incoherent
-    slab sum ½∫ Σ_pol ½ T12 T23 / (1 − R21 R23) sinθ dθ per polarisation (REFERENCE §2), to
+    slab sum ½∫ Σ_pol ½ T12 T23 / (1 − R21 R23) sinθ dθ per polarisation (sources.md Optics), to
     1e-10."""
     stack = Stack((Layer("water", 1.33, 5.0), Layer("glass", 1.5, 20.0), Layer("air", 1.0, 0.0)))
 
@@ -228,7 +228,7 @@ def test_jssc2006_faceplate_kills_cross_talk():
 
 def test_cross_talk_falls_as_the_water_gap_shrinks():
     """pyro_1fmol geometry, water over oxide to 15 µm: neighbour/own falls monotonically as the
-    gap shrinks; at 1 µm −34.1 dB (REFERENCE §2 traced: −34 dB; one-medium psf −16.7 dB)."""
+    gap shrinks; at 1 µm −34.1 dB (a ray trace: −34 dB, sources.md O18; one-medium psf −16.7 dB)."""
     sx, sy = pyro_sites()
     xt = []
     for gap in (10.0, 3.0, 1.0, 0.3, 0.1):

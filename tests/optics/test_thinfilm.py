@@ -2,7 +2,7 @@
 package (an independent implementation) on random stacks, absorbing and evanescent layers among
 them; against closed forms (a quarter-wave anti-reflection layer, a half-wave layer that is not
 there, energy conservation); and the band average of a thick layer against the incoherent slab
-of REFERENCE §2."""
+of sources.md O8."""
 
 from __future__ import annotations
 
@@ -84,7 +84,7 @@ def test_lossless_stacks_conserve_energy_and_a_zero_thickness_layer_is_not_there
 
 
 def test_a_thick_layer_averaged_over_the_band_is_the_incoherent_slab():
-    """REFERENCE §2's incoherent slab, ½∫ T₁₂T₂₃/(1 − R₂₁R₂₃) sinθ dθ per polarisation, for
+    """The incoherent slab (sources.md O8), ½∫ T₁₂T₂₃/(1 − R₂₁R₂₃) sinθ dθ per polarisation, for
     1 µm of water over 14 µm of oxide on silicon (n 4.3): the coherent sum over the luciferase's
     band (coherence length 4.5 µm, against the oxide's 41 µm round trip) is within 1e-4 of it;
     a narrow 2 nm line through a 1 µm oxide keeps its fringes and is not."""

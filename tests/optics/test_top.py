@@ -1,6 +1,6 @@
 """The site's top surface (:mod:`chiptwin.optics.top`) at the psf and raytrace levels.
 
-Kinds (STYLE 8): validation (the returned share against an independent quadrature of Fresnel's
+Kinds: validation (the returned share against an independent quadrature of Fresnel's
 equations, Born & Wolf §1.5.2: water 1.33 under air, TIR beyond 48.75°; a glass lid's
 incoherent slab), equivalence (psf's image source against the tracer pixel by pixel, where the
 tracer's extra passes vanish: an index-matched plane, the jssc2006_faceplate geometry), unit

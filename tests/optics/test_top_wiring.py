@@ -1,7 +1,7 @@
 """``[optics.top]`` wired through the twin: the scene's coupling, the raytrace cache, the summary
 and the report.
 
-Kinds (STYLE 8): unit (the cache key holds the top; the scenario path hands the top to both
+Kinds: unit (the cache key holds the top; the scenario path hands the top to both
 levels), regression of the jssc2006_faceplate scene under an open top (summary and report).
 """
 

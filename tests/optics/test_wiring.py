@@ -1,7 +1,8 @@
-"""Issue 18 wired into the scenario, the twin and the tools: the ``[optics]`` keys, the levels
+"""The planar stack wired into the scenario, the twin and the tools: the ``[optics]`` keys, the
+levels
 ``na2 · psf · raytrace`` through :func:`chiptwin.twin.stages.coupling`, ``auto`` and the summary.
 
-Kinds (STYLE 8): equivalence (a homogeneous one-layer stack gives today's summary bit for bit;
+Kinds: equivalence (a homogeneous one-layer stack gives today's summary bit for bit;
 ``raytrace`` equals ``psf`` within 4 standard errors pixel by pixel through the scenario path),
 unit (bad keys exit 2 naming the key; ``auto`` picks with reasons), regression of the bundled
 scenes (stating their stacks under ``lambertian_na2`` changes no coupling) and the

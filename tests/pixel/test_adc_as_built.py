@@ -1,6 +1,6 @@
 """The converter as built (chiptwin.pixel.converter): equivalence with today's ideal converter,
 exactness of the transition-table lookup against a numpy oracle, and Monte Carlo checks of the
-DNL statistics, the ``expected`` level's moments and the dither law (issue 17, items 1 and 4).
+DNL statistics, the ``expected`` level's moments and the dither law.
 
 Equivalence tests are bit for bit; the Monte Carlo tests have fixed seeds and tolerances of four
 standard errors (a wrong model fails them by tens).
@@ -303,7 +303,7 @@ def test_expected_matches_a_monte_carlo_of_the_binned_path():
     assert np.all(np.abs(mc_var - v) <= 4 * np.sqrt(np.maximum(m4 - v * v, 0) / n) + 1e-12)
 
 
-# --- the dither law (issue 17, item 4) -----------------------------------------------------
+# --- the dither law -------------------------------------------------------------------------------
 
 
 def _mean_of_m(conv: Converter, level_lsb: np.ndarray, m: int, seed: int) -> np.ndarray:

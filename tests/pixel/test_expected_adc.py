@@ -1,4 +1,4 @@
-"""The expected level through the converter as built (issue 17 item 1): the CMS output's mean and
+"""The expected level through the converter as built: the CMS output's mean and
 variance from the transition tables, checked against a slow reference and a Monte Carlo of the
 binned path."""
 

@@ -87,7 +87,7 @@ def test_offset_and_gain_error_table(offset, gain, x_lsb, code):
 def test_no_bias_over_a_fine_ramp():
     """Mean quantisation error over a ramp of 1000 evenly spaced points per LSB across every
     interior code is 0 to 1e-9 LSB (each code's errors are symmetric); |error| ≤ 0.5 LSB. A
-    truncating ADC (Pyxel 3.0.2, REFERENCE §6) would show −0.5 LSB."""
+    truncating ADC (Pyxel 3.0.2; sources.md A2) would show −0.5 LSB."""
     k = 1000
     x = 0.5 + (np.arange(254 * k) + 0.5) / k  # codes 1 … 254, never clipped
     err = _codes(x) - x
@@ -236,7 +236,8 @@ def test_moments_with_both_ends_in_reach():
 
 
 def test_adc_expected_sheppard_inside_the_range():
-    """Well inside the range with σ ≥ 2 LSB: mean x̄ and variance σ² + 1/12 LSB² (REFERENCE §4)."""
+    """Well inside the range with σ ≥ 2 LSB: mean x̄ and variance σ² + 1/12 LSB² (Widrow &
+    Kollár 2008; sources.md D2–D3)."""
     mean, var = adc_expected(0.5, (3.0 * LSB) ** 2, BITS, V0, V1, offset_lsb=0.25)
     assert mean == pytest.approx(128.25, abs=1e-12)
     assert var == pytest.approx(9.0 + 1.0 / 12.0, abs=1e-12)

@@ -1,6 +1,6 @@
 """The ``binned`` level on many cores: one stream per chunk of ``CHUNK_PIXELS`` pixels.
 
-Equivalence tests (STYLE 7): the codes depend on the seed only, never on the thread count; chunk 0
+Equivalence tests: the codes depend on the seed only, never on the thread count; chunk 0
 is the single-stream path (so arrays of at most one chunk draw what they drew before chunking);
 the other chunks draw from their own streams with the same distribution as the frame-by-frame
 reference ``sample_frame`` (two-sample tests at fixed seeds). And the clipped-Poisson moments'

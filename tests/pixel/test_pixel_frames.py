@@ -1,6 +1,6 @@
 """chiptwin.pixel.binned_codes (many frames in one kernel call) against its slow obvious reference,
 sample_frame → to_volts → adc_convert called frame after frame on the same Generator: the same
-codes bit for bit and the Generator left in the same state (equivalence tests, STYLE 7)."""
+codes bit for bit and the Generator left in the same state (equivalence tests)."""
 
 from __future__ import annotations
 

@@ -131,8 +131,8 @@ def measured(request):
 
 def test_photon_transfer_recovers_conversion_gain(measured):
     """The variance-vs-mean slope of flat-field pairs is the gain in codes/e⁻; times the LSB it
-    is the conversion gain q/C (16.0 µV/e⁻ at 10 fF, 0.160 µV/e⁻ at 1 pF, REFERENCE §4).
-    Tolerance: 5 standard errors of the weighted fit's slope (≈ 0.3 % here)."""
+    is the conversion gain q/C (16.0 µV/e⁻ at 10 fF, 0.160 µV/e⁻ at 1 pF, sources.md
+    P6). Tolerance: 5 standard errors of the weighted fit's slope (≈ 0.3 % here)."""
     bench, g, g_se = measured["bench"], measured["g"], measured["g_se"]
     assert abs(g - bench.gain_codes_per_e) < 5 * g_se
     assert g_se / g < 0.01
@@ -214,9 +214,9 @@ def test_dark_frames_recover_dsnu(measured):
 def test_no_cds_dark_frames_recover_ktc(measured):
     """Validation: kTC noise measured from dark frames read without true CDS (the reset samples
     carry an independent kTC draw): var(D) = 2g²(σ_kTC² + σ_r²) + 2/12, with g and σ_r measured
-    above. REFERENCE §4: 40 e⁻ at 10 fF, 402 e⁻ at 1 pF (300 K). Tolerance: 5 se by the delta
-    method plus the reference's rounding to whole electrons (0.5 e⁻). With true CDS the same
-    dark frames lack the 2g²σ_kTC² excess."""
+    above. sources.md P5: 40 e⁻ at 10 fF, 402 e⁻ at 1 pF (300 K). Tolerance: 5 se by
+    the delta method plus the reference's rounding to whole electrons (0.5 e⁻). With true CDS the
+    same dark frames lack the 2g²σ_kTC² excess."""
     bench, g, g_se = measured["bench"], measured["g"], measured["g_se"]
     _, u, se_u, v_cds = _read_noise(measured)  # true CDS: read noise and quantisation only
     frames = cds_codes(measured["rng"], bench, np.zeros(N_PIX), 0.0, 1.0, true_cds=False)

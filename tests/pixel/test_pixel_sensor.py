@@ -42,7 +42,7 @@ def test_dark_current_value_at_reference_temperature():
 
 @pytest.mark.parametrize("steps", [-2, -1, 1, 2, 3])
 def test_dark_current_doubles_every_7_C(steps):
-    """Validation: dark current doubles every 5–8 °C, default 7 °C (REFERENCE §4, Harvest
+    """Validation: dark current doubles every 5–8 °C, default 7 °C (Theuwissen, Harvest
     Imaging); i(T0 + n·7 °C) = 2^n · i(T0) to 1e-12 relative."""
     base = dark_current_e_per_s(0.5, 1e4, 25.0)
     assert dark_current_e_per_s(0.5, 1e4, 25.0 + 7.0 * steps) == pytest.approx(
@@ -51,7 +51,8 @@ def test_dark_current_doubles_every_7_C(steps):
 
 
 def test_dark_current_doubling_step_is_a_parameter():
-    """A 5 °C doubling step: +5 °C doubles, +10 °C quadruples (REFERENCE §4 range 5–8 °C)."""
+    """A 5 °C doubling step: +5 °C doubles, +10 °C quadruples (Theuwissen, Harvest Imaging: 5–8
+    °C)."""
     base = dark_current_e_per_s(1.0, 100.0, 30.0, ref_temp_C=30.0, doubling_C=5.0)
     assert dark_current_e_per_s(1.0, 100.0, 40.0, 30.0, 5.0) == pytest.approx(4 * base)
 
@@ -78,7 +79,8 @@ def test_dark_current_rejects_bad_arguments(kwargs, name):
 @pytest.mark.parametrize(("c_fF", "published_e"), [(10.0, 40.0), (100.0, 127.0), (1000.0, 402.0)])
 def test_ktc_noise_matches_reference(c_fF, published_e):
     """Validation: √(kTC)/q = 40 e⁻ at 10 fF, 127 e⁻ at 100 fF, 402 e⁻ at 1 pF, 300 K
-    (REFERENCE §4). Tolerance: the published figures are rounded to whole electrons, ±0.5 e⁻."""
+    (sources.md P5). Tolerance: the published figures are rounded to whole electrons,
+    ±0.5 e⁻."""
     assert abs(ktc_noise_e(c_fF, 300.0) - published_e) <= 0.5
 
 
@@ -88,7 +90,8 @@ def test_ktc_noise_scales_as_sqrt_tc():
 
 
 def test_conversion_gain_of_1pF_diode():
-    """Validation: ≈ 1 pF for the 100 µm n-well diode → ≈ 0.16 µV/e⁻ (REFERENCE §4); q/C exact."""
+    """Validation: ≈ 1 pF for the 100 µm n-well diode → ≈ 0.16 µV/e⁻ (sources.md P6);
+    q/C exact."""
     assert conversion_gain_uV_per_e(1000.0) == pytest.approx(0.1602176634, rel=1e-12)
     assert conversion_gain_uV_per_e(10.0) == pytest.approx(16.02176634, rel=1e-12)
 
@@ -106,7 +109,7 @@ def test_capacitance_must_be_positive(c):
 
 @pytest.mark.parametrize(("prnu", "dsnu"), [(0.01, 0.1), (0.3, 2.0), (0.0, 0.0)])
 def test_fixed_pattern_maps_have_mean_exactly_one(prnu, dsnu):
-    """Mean 1 to 1e-12 (Pyxel 3.0.2's PRNU map does not, REFERENCE §6); dark map ≥ 0."""
+    """Mean 1 to 1e-12 (Pyxel 3.0.2's PRNU map does not; sources.md A2); dark map ≥ 0."""
     gain, dark = fixed_pattern_maps(np.random.default_rng(3), 50_000, prnu, dsnu)
     assert gain.shape == dark.shape == (50_000,)
     assert abs(gain.mean() - 1.0) < 1e-12 and abs(dark.mean() - 1.0) < 1e-12
@@ -199,8 +202,8 @@ def test_true_cds_cancels_the_shared_ktc_draw_exactly():
 
 @pytest.mark.parametrize("true_cds", [True, False])
 def test_ktc_in_cds_difference(true_cds):
-    """No true CDS keeps 2σ_kTC² in signal − reset; true CDS cancels it (REFERENCE §4: kTC is
-    removed by sampling right after reset). 1 pF, 402 e⁻; tolerance 5 se of the variance."""
+    """No true CDS keeps 2σ_kTC² in signal − reset; true CDS cancels it (sources.md P5:
+    kTC is removed by sampling right after reset). 1 pF, 402 e⁻; tolerance 5 se of the variance."""
     ktc = ktc_noise_e(1000.0)
     reset, signal = _frame(
         np.random.default_rng(6),

@@ -1,5 +1,5 @@
 """The drop-in RTL routines return the model's :class:`FixedResult`: codes, format and
-per-register overflow counts, equal (three levels of one DSP share one test, STYLE 7)."""
+per-register overflow counts, equal (three levels of one DSP share one test)."""
 
 from __future__ import annotations
 

@@ -130,7 +130,7 @@ def test_lod_bisection_answer_at_reduced_replicates():
 
 
 def test_comparator_noise_dithers_the_adc_bits_answer_down(noiseless_adc):
-    """Issue 17: the comparator's noise is the dither the ideal converter lacked. At 1 fmol, a
+    """The comparator's noise is the dither the ideal converter lacked. At 1 fmol, a
     comparator of 1 LSB of 13 bits (122 µV rms) dithers the quantizer, so 13 bits meet the 0.5 dB
     loss against the 20-bit reference with the same comparator (loss ≈ 0.3 dB, 12 bits ≈ 1.1
     dB); without it 15 bits are needed and 13 bits lose ≈ 2.9 dB. The noise itself costs SNR:

@@ -1,4 +1,4 @@
-"""A stopped study leaves nothing running (issue 22, item 1).
+"""A stopped study leaves nothing running.
 
 SIGTERM stops ``chiptwin study`` as Ctrl-C does (exit 143, one line, stored rows kept); SIGKILL
 kills the parent outright, and its pool workers follow it (``PR_SET_PDEATHSIG`` and the parent
@@ -11,6 +11,7 @@ Processes are found through ``/proc`` (Linux), no dependency.
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import sqlite3
@@ -108,8 +109,10 @@ def test_sigterm_and_sigkill_leave_no_worker_and_the_study_resumes(tmp_path, cap
     path = write_study(tmp_path, STUDY.replace("replicates = 3", "replicates = 40"))
     out = tmp_path / "out"
     db = out / "results.sqlite"
+    # tasks of 2 rows (the default would make tasks of 30 of these 120 rows): a task's two rows
+    # (replicates 2k and 2k + 1 of a point) are stored together or not at all
     cmd = [sys.executable, "-m", "chiptwin", "study", str(path), "--out", str(out),
-           "--workers", "2", "--quiet"]
+           "--rows-per-task", "2", "--workers", "2", "--quiet"]
 
     proc, workers = start_and_wait(cmd, db, rows=4)
     assert main(cmd[3:]) == 2  # one writer a folder: refused before anything runs
@@ -126,10 +129,15 @@ def test_sigterm_and_sigkill_leave_no_worker_and_the_study_resumes(tmp_path, cap
     print(f"SIGKILL: workers gone in {took:.2f} s")
     assert not (out / "study.json").exists()
     assert 8 <= stored(db) < 120  # rows of both starts kept, the study not finished
+    kept = set(sqlite3.connect(db).execute("SELECT point, replicate FROM runs"))
+    assert all((p, r ^ 1) in kept for p, r in kept)  # whole tasks only
 
     # the same command again, in this process and serially: what it is tested for is the
     # store it resumes (executors give the same rows: test_engine), not its processes
     assert main([*cmd[3:-3], "--workers", "1", "--quiet"]) == 0, capsys.readouterr().err
+    runs = json.loads((out / "study.json").read_text())["runs"]
+    assert runs["resumed"] == len(kept)  # 4 points × 40 replicates: no stored row run twice
+    assert runs["computed"] == runs["total"] - len(kept) == 160 - len(kept)
     whole = run_study(path, workers=1)
     again = Store(db, load_study(path)).rows()
     assert comparable(again) == comparable(whole.table)

@@ -1,4 +1,4 @@
-"""The study report (issue 22, item 6): the status map shows a third budget axis as facets and
+"""The study report: the status map shows a third budget axis as facets and
 names the states on its colour bar; the points table leads with the requirement a point fails.
 
 One real study: the bundled ``frame_memory`` (three budget axes: 5 memories × 3 N × 2 K, with

@@ -1,4 +1,4 @@
-"""Chip-level equivalence of the multi-core binned path (issue 13): on an array of more than one
+"""Chip-level equivalence of the multi-core binned path: on an array of more than one
 chunk of random streams, the pixels of chunk 0 draw exactly what the frame-by-frame
 ``sample_frame`` path draws (tests/pixel/test_pixel_chunks.py, test_pixel_frames.py), and the
 pixels of the other chunks, drawn from their own streams on other threads, must give DSP outputs

@@ -4,7 +4,7 @@ site's cross-talk by what the coupling matrix predicts.
 Oracle, computed here from the optics stage alone: the coupling ``C`` of a site above every pixel
 (:func:`chiptwin.twin.stages.coupling`), columns normalised to each site's own pixel, the float
 Wiener
-matrix ``G = (CᵀC + λI)⁻¹Cᵀ`` (REFERENCE §2, paper §3.3); a site's cross-talk is
+matrix ``G = (CᵀC + λI)⁻¹Cᵀ`` (Salama et al. 2004, Sec. 3.3); a site's cross-talk is
 ``Σ_n |A[n, j]| / A[j, j]`` over its 4 neighbours with ``A = C`` before and ``A = G C`` after.
 The summary's "after" is measured by pushing each site's light through the chip's fixed-point
 equalizer (18-bit coefficients): it must agree with the float prediction within 0.05 dB, and the

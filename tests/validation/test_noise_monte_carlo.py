@@ -1,4 +1,4 @@
-"""The propagated noise against the spread it predicts, by Monte Carlo over seeds (issue 11).
+"""The propagated noise against the spread it predicts, by Monte Carlo over seeds.
 
 One chip (``chip.fixed_pattern_seed`` pinned), the scene prepared once, 500 seeds of the small
 pyrosequencing scenario in its 8 key flows of 4 s (36 frames; the 284-frame scene costs 8 times

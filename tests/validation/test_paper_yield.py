@@ -3,8 +3,8 @@ every incorporating flow at 1 fmol, when the closed form says; pyro_paper_yield_
 frames do not fill and call the template.
 
 Salama et al. 2004, eqs. 18–19: I(t) = α·k_t·N_A·V[DNA]·n·e^{−k_a (t − t_flow)} photons/s for n
-bases incorporated (5.3e23·V[DNA] per base: 17.6 photons per base, REFERENCE §1). The fill time
-t* solves Λ(t*) = full well, Λ the expected electrons since the window opened; the well fills
+bases incorporated (5.3e23·V[DNA] per base: 17.6 photons per base, sources.md Kinetics). The fill
+time t* solves Λ(t*) = full well, Λ the expected electrons since the window opened; the well fills
 with the full-well-th electron, whose time has standard deviation ≈ √(full well) / λ(t*) (λ the
 electron rate at t*): the shot-noise tolerance, five of them.
 """

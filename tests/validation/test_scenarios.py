@@ -30,8 +30,8 @@ def test_ccd_100fmol_peak_snr_is_the_papers_750():
 
 def test_paper_yield_saturates_the_1fmol_pixel():
     """With eq. 19's yield (17.6 photons per base, 1760× the measured one) the 1 fmol peak,
-    5.3e8 photons/s (REFERENCE §1), fills the 6e6 e⁻ well within a 1 s frame: the run must show
-    clipping, not a 1760× larger signal."""
+    5.3e8 photons/s (sources.md Kinetics), fills the 6e6 e⁻ well within a 1 s frame: the run must
+    show clipping, not a 1760× larger signal."""
     measured = run(SCENARIOS / "pyro_1fmol.toml").summary["sites"][0]["peak_frame_signal_e"]
     paper = run(SCENARIOS / "pyro_1fmol.toml", ["assay.photons_per_incorporation=0"])
     peak = paper.summary["sites"][0]["peak_frame_signal_e"]

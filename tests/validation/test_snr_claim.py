@@ -1,4 +1,5 @@
-"""The paper's CMOS claim (REFERENCE §4, "The paper's CMOS claim, checked").
+"""The paper's CMOS claim (Salama et al. 2004, Sec. 4; checked in docs/background/sources.md
+P11–P13).
 
 Salama et al. 2004 claim SNR = 10 for 0.5 photons/s/µm² over 10 s on a 100 × 100 µm diode.
 Noise per eq. 21 in electrons: σ² = S + D + σ_read²; SNR = S²/σ² (eq. 22, a power ratio).
@@ -27,7 +28,8 @@ def paper_snr_power(qe: float, j_nA_per_cm2: float) -> float:
 
 
 def test_forward_check():
-    """REFERENCE §4: QE 0.3, J = 0.36 nA/cm², σ_read = 100 e⁻ → SNR_power ≈ 99, SNR_amp ≈ 9.95.
+    """sources.md P13: QE 0.3, J = 0.36 nA/cm², σ_read = 100 e⁻ → SNR_power ≈ 99,
+    SNR_amp ≈ 9.95.
 
     Tolerance 1 % (the reference rounds to two digits).
     """
@@ -41,7 +43,7 @@ def test_forward_check():
     [(0.3, "power", 3.6), (0.5, "power", 10.0), (0.3, "amplitude", 0.36), (0.5, "amplitude", 1.0)],
 )
 def test_inverse_dark_current_for_snr10(qe, reading, j_expected):
-    """REFERENCE §4 table: the dark current density that gives exactly SNR = 10.
+    """sources.md P12: the dark current density that gives exactly SNR = 10.
 
     Power reading (10 dB): 3.6 / 10 nA/cm² at QE 0.3 / 0.5; amplitude reading (20 dB):
     0.36 / 1.0 nA/cm². Tolerance 3 % (the table is rounded to two significant digits).
