@@ -5,7 +5,8 @@ A budget study prepares a point once (``chiptwin.twin.prepare``) and runs thousa
 float DSP, 8 × 16 pixels, 1520 frames):
 
 * ``run()`` (prepare + run_prepared) and ``run_prepared`` on one prepared scene, as they are
-  (the chip model's reader draws a block of frames' codes in one ``pixel.binned_codes`` call);
+  (the chip model's reader draws a block of frames' codes in one ``pixel.binned_codes`` call;
+  its counts and noise on one stream per chunk here, as the public functions draw them);
 * the same two with a frame-by-frame reader patched in (the "frame" rows): the reader of
   ``chiptwin.twin.runner`` with its draw replaced by the public, checked ``sample_frame`` →
   ``to_volts`` → ``adc_convert`` called once per frame on the same stream, the path
@@ -48,7 +49,18 @@ STAGES = ("kinetics", "optics", "pixel", "adc", "dsp", "memory", "detection")
 # --- the frame-by-frame reader, patched in for the "frame" rows ----------------------------
 
 
-class FrameByFrame(run_module._FrameReader):
+class OneStream(run_module._FrameReader):
+    """The chip model's reader with the counts and the noise on one stream per chunk, as the
+    public per-frame functions draw them (the runner gives the kTC, read and comparator normals
+    a stream of their own so that fidelity levels share them; off here, for the bit-for-bit
+    check: the kernels and their cost are the same)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.normal_streams = None
+
+
+class FrameByFrame(OneStream):
     """The chip model's reader, its codes drawn one frame at a time by the public functions."""
 
     def _draw(self, k: int, stop: int) -> np.ndarray:
@@ -84,10 +96,10 @@ def check_scene(s) -> None:
 
 
 @contextlib.contextmanager
-def frame_path() -> Iterator[None]:
-    """Run ``run``/``run_prepared`` with the frame-by-frame reader while inside."""
+def reader(cls: type) -> Iterator[None]:
+    """Run ``run``/``run_prepared`` with the reader ``cls`` while inside."""
     saved = run_module._FrameReader
-    run_module._FrameReader = FrameByFrame
+    run_module._FrameReader = cls
     try:
         yield
     finally:
@@ -127,8 +139,9 @@ def measure(path: Path, repeat: int, sets: list[str]) -> dict[str, list]:
         for i in range(1 if warm else repeat):
             seed = s.scenario.seed + i
             rep = replace(s, scenario=replace(s.scenario, seed=seed))
-            block = (_timed(run, s, seed=seed), _timed(run_prepared, rep, scene))
-            with frame_path():
+            with reader(OneStream):
+                block = (_timed(run, s, seed=seed), _timed(run_prepared, rep, scene))
+            with reader(FrameByFrame):
                 frame = (_timed(run, s, seed=seed), _timed(run_prepared, rep, scene))
             for got, ref in zip(block, frame, strict=True):
                 if not _same(got[2], ref[2]):

@@ -1,13 +1,14 @@
 """A bundled grid study as a whole grid and with ``stop_early = true``, run in turn.
 
     python benchmarks/bench_stop_early.py [--study frame_memory] [--batch 2] [--repeat 2]
-                                          [--bits LO HI] [--workers 2]
+                                          [--bits LO HI] [--workers 2] [--quick]
 
 Each repeat runs the whole grid, then the same study with ``stop_early = true`` (and ``batch``),
 from scratch (no stored rows), side by side; prints the rows each stored, the rows saved, the
 wall times and their ratio, and whether every answer and every point's status are the same.
 ``--bits LO HI`` narrows the first axis (``adc_bits_pyro``: ``--bits 13 16``, the answers'
-range: its 10-bit points take minutes each to prepare as built).
+range). ``--quick``: ``frame_memory`` with 2 replicates in looks of 1, one process, once (the
+same code path, a smoke run).
 
 Measured (2026-11-28, 2 workers, a 2-core machine shared with other jobs): ``frame_memory
 --batch 2``: 72 rows of 120, the same answer and statuses, 14–17 s against 15–20 s (two pairs),
@@ -45,9 +46,15 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--bits", type=int, nargs=2, metavar=("LO", "HI"))
+    ap.add_argument("--quick", action="store_true",
+                    help="frame_memory, 2 replicates in looks of 1, one process, once")
     args = ap.parse_args()
-    whole = bundled(args.study, {}, args.bits)
-    early = bundled(args.study, {"stop_early": True, "batch": args.batch}, args.bits)
+    edit = {}
+    if args.quick:
+        args.study, args.batch, args.repeat, args.workers = "frame_memory", 1, 1, 1
+        edit = {"replicates": 2}
+    whole = bundled(args.study, edit, args.bits)
+    early = bundled(args.study, {**edit, "stop_early": True, "batch": args.batch}, args.bits)
     for i in range(args.repeat):
         t0 = time.perf_counter()
         a = run_study(whole, workers=args.workers)

@@ -58,13 +58,14 @@ def test_frame_memory_answer_is_31_frames_with_16_dark_frames(frame_memory_resul
 
 # --- ADC bits -----------------------------------------------------------------------------------
 
-#: Three replicates decide every comparison these tests make. The per-replicate power SNR
-#: varies by ≈ 0.6 % (1 fmol) and ≈ 1.5 % (0.1 fmol) of its mean without comparator noise,
-#: ≈ 1 % with it, so at n = 3 the standard error of the loss is ≈ 4.34·cv·√(2/3) dB and the
-#: one-sided 95 % bound sits t(0.95, 2) = 2.92 of them above the loss: 15 bits (loss 0.11 dB at
-#: 0.1 fmol, 0.15 dB at 1 fmol) stays below 0.5 dB by > 4 standard errors (measured bounds 0.30
-#: and 0.17 dB), 14 bits (0.54–0.56 dB) never passes, and at 1 LSB of comparator noise 13 bits
-#: (0.26 dB, bound 0.32 dB) passes while 12 bits (1.1 dB) fails by > 20 standard errors.
+#: Three replicates decide the comparisons at 1 fmol: there the per-replicate power SNR varies
+#: little, the standard error of the loss is ≈ 4.34·cv·√(2/3) dB and the one-sided 95 % bound
+#: sits t(0.95, 2) = 2.92 of them above the loss: 15 bits (loss ≈ 0.11 dB, bound ≈ 0.2 dB)
+#: passes, 14 bits (0.54–0.56 dB) never does, and at 1 LSB of comparator noise 13 bits (0.26 dB,
+#: bound 0.32 dB) passes while 12 bits (1.1 dB) fails by > 20 standard errors. At 0.1 fmol on the
+#: chip as built the power SNR varies by 10–14 % a replicate (8 seeds of the 2 sites): three
+#: bound the loss only to ≈ ±1 dB, so 15 bits passes or stays undecided by the draws (then 16
+#: answers); the study's 90 replicates decide it.
 ADC_REPLICATES = 3
 
 
@@ -90,11 +91,13 @@ def noiseless_adc():
 
 
 def test_adc_bits_answer_is_15_bits_for_the_snr_loss(noiseless_adc):
-    """README: the 0.5 dB SNR-loss requirement first holds at 15 bits (read noise 0.52 LSB) at
-    both amounts; 13 bits loses ≈ 3 dB. Three replicates on bits 12 … 16 (the base-error part
-    needs the full 90 replicates to bound 1e-3, so it is left out here)."""
+    """The 0.5 dB SNR-loss requirement first holds at 15 bits (read noise 0.52 LSB) at 1 fmol
+    (at 0.1 fmol three replicates leave 15 undecided or passing: :data:`ADC_REPLICATES`); 13 bits
+    loses ≈ 3 dB at both amounts. Three replicates on bits 12 … 16 (the base-error part needs
+    the full 90 replicates to bound 1e-3, so it is left out here)."""
     result = noiseless_adc
-    assert [a["point"]["chip.adc.bits"] for a in result.answer] == [15, 15]
+    answer = {a["given"]["assay.dna_fmol"]: a["point"]["chip.adc.bits"] for a in result.answer}
+    assert answer[1.0] == 15 and answer[0.1] in (15, 16)
     loss13 = [p["metrics"]["snr_loss_db"]["value"] for p in result.summary["points"]
               if p["params"]["chip.adc.bits"] == 13]
     assert len(loss13) == 2 and all(2.5 < v < 3.7 for v in loss13)
