@@ -537,15 +537,28 @@ def _check_key(err: _Errors, where: str, key: str, base_raw: dict) -> dataclasse
     return found
 
 
+def _keyed_table(err: _Errors, where: str, table: dict, allowed: set[str], example: str,
+                 base_raw: dict) -> tuple[str, dataclasses.Field]:
+    """A ``[[study.axis]]`` or ``[[study.assumption]]`` table's own keys checked against
+    ``allowed``, and its ``key``: a scenario key (:func:`_check_key`). Returns it and its rule."""
+    for k in table:
+        if k not in allowed:
+            err.fail(f"{where}.{k}", table[k], _unknown(k, allowed))
+    key = table.get("key", dataclasses.MISSING)
+    if not isinstance(key, str):
+        err.fail(f"{where}.key", key, f'must be a scenario key, e.g. "{example}"')
+    return key, _check_key(err, f"{where}.key", key, base_raw)
+
+
+def _finite_pair(r: Any) -> bool:
+    """``[lo, hi]``: a list of two finite numbers (not booleans)."""
+    return isinstance(r, list) and len(r) == 2 and all(
+        isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x) for x in r)
+
+
 def _axis(err: _Errors, i: int, a: dict, base_raw: dict) -> Axis:
     where = f"study.axis[{i}]"
-    for k in a:
-        if k not in _AXIS_KEYS:
-            err.fail(f"{where}.{k}", a[k], _unknown(k, _AXIS_KEYS))
-    key = a.get("key", dataclasses.MISSING)
-    if not isinstance(key, str):
-        err.fail(f"{where}.key", key, 'must be a scenario key, e.g. "chip.adc.bits"')
-    _check_key(err, f"{where}.key", key, base_raw)
+    key, _ = _keyed_table(err, where, a, _AXIS_KEYS, "chip.adc.bits", base_raw)
     if ("values" in a) == ("range" in a):
         err.fail(where, key, "needs exactly one of values = [...] or range = [lo, hi] + scale")
     values = _axis_values(err, where, a) if "range" in a else a["values"]
@@ -561,10 +574,7 @@ def _axis(err: _Errors, i: int, a: dict, base_raw: dict) -> Axis:
 
 def _axis_values(err: _Errors, where: str, a: dict) -> list:
     r, scale = a["range"], a.get("scale", dataclasses.MISSING)
-    ok = (isinstance(r, list) and len(r) == 2 and all(
-        isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x) for x in r)
-        and r[0] < r[1])
-    if not ok:
+    if not (_finite_pair(r) and r[0] < r[1]):
         err.fail(f"{where}.range", r, "must be [lo, hi], two finite numbers with lo < hi")
     if scale not in SCALES:
         err.fail(f"{where}.scale", scale, "must be one of 'lin', 'log' (with n) or 'int'")
@@ -659,22 +669,15 @@ def _assumptions(err: _Errors, st: dict, kind: str, axes: tuple[Axis, ...], base
 
 def _assumption(err: _Errors, where: str, t: dict, base_raw: dict, base: Scenario,
                 taken: dict[str, str]) -> Assumption:
-    for k in t:
-        if k not in _ASSUMPTION_KEYS:
-            err.fail(f"{where}.{k}", t[k], _unknown(k, _ASSUMPTION_KEYS))
-    key = t.get("key", dataclasses.MISSING)
-    if not isinstance(key, str):
-        err.fail(f"{where}.key", key, 'must be a scenario key, e.g. "chip.pixel.read_noise_e"')
-    rule = _check_key(err, f"{where}.key", key, base_raw)
+    key, rule = _keyed_table(err, where, t, _ASSUMPTION_KEYS, "chip.pixel.read_noise_e",
+                             base_raw)
     if rule.metadata.get("choices") or rule.metadata.get("kind") not in (float, int):
         err.fail(f"{where}.key", key, f"is not a number ({allowed_text(rule)}); an assumption "
                  "spans a numeric range")
     if key in taken:
         err.fail(f"{where}.key", key, taken[key])
     r = t.get("range", dataclasses.MISSING)
-    if not (isinstance(r, list) and len(r) == 2 and all(
-            isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
-            for x in r)):
+    if not _finite_pair(r):
         err.fail(f"{where}.range", r, f"{key}: must be [lo, hi], two finite numbers")
     if r[0] >= r[1]:
         err.fail(f"{where}.range", r, f"{key}: lo must be below hi (the low end first)")
