@@ -4,7 +4,9 @@
 #   bash scripts/docs.sh [extra sphinx-build arguments]
 #
 # 1. python -m pip install -e ".[docs]"   (Sphinx, myst-nb, furo, ipykernel, Playwright, pytest)
-# 2. sphinx-build -W --keep-going (not nitpicky: the docstrings' own cross-references are not yet
+# 2. sphinx-build -E -W --keep-going (every page read again: an incremental build re-runs only
+#    the pages whose source changed, so a tutorial kept the output of the package it last ran;
+#    not nitpicky: the docstrings' own cross-references are not yet
 #    clean): a broken link or reference in the pages, a docstring Sphinx cannot read or a
 #    tutorial cell that raises fails the build (every warning is listed first). The tutorials
 #    and the outputs page run at every build; the CLI, scenario and study references are
@@ -30,7 +32,7 @@ fi
 
 "$PY" -m pip install -q -e ".[docs]"
 start=$(date +%s)
-"$PY" -m sphinx -b html -W --keep-going -q docs docs/_build/html "$@"
+"$PY" -m sphinx -b html -E -W --keep-going -q docs docs/_build/html "$@"
 echo "docs.sh: built docs/_build/html/index.html in $(( $(date +%s) - start )) s" >&2
 start=$(date +%s)
 CHIPTWIN_DOCS_BUILT=1 "$PY" -m pytest tests/docs -q -p no:cacheprovider
