@@ -168,10 +168,18 @@ class _Runner:
                  task_rows: int | None = None) -> None:
         self.plan, self.store, self.executor, self.progress = plan, store, executor, progress
         self.task_rows = task_rows
-        self.rows: dict[tuple[str, int], dict] = {(r["point"], r["replicate"]): r
-                                                  for r in store.rows()}
+        self.rows: dict[tuple[str, int], dict] = {}
+        self._ok_s, self._ok_n = 0.0, 0  # the wall time of the rows that ran, and how many
+        for row in store.rows():
+            self._keep(row)
         self.computed = 0
         self.total = 0
+
+    def _keep(self, row: dict) -> None:
+        self.rows[(row["point"], row["replicate"])] = row
+        if row["status"] == "ok":
+            self._ok_s += row["wall_s"]
+            self._ok_n += 1
 
     def ensure(self, wanted: list[tuple[str, int]]) -> None:
         """Run every ``(point, replicates)`` row not stored yet, in tasks of consecutive rows
@@ -180,19 +188,20 @@ class _Runner:
                       for t in self.plan.tasks(pid, range(n))
                       if (t.point, t.replicate) not in self.rows}.values())
         self.total = max(self.total, len(self.rows) + len(tasks))
+        if not tasks:
+            return
         size = self.task_rows or rows_per_task(self.row_s(), len(tasks), self.executor.workers)
         for rows in self.executor.run(batches(tasks, size)):
             self.store.add(rows)
             for row in rows:
-                self.rows[(row["point"], row["replicate"])] = row
+                self._keep(row)
             self.computed += len(rows)
             if self.progress:
                 self.progress(len(self.rows), self.total)
 
     def row_s(self) -> float:
         """A row's seconds: the mean measured over the rows run so far, else the estimate."""
-        ran = [r["wall_s"] for r in self.rows.values() if r["status"] == "ok"]
-        return sum(ran) / len(ran) if ran else estimate_s(self.plan)[0]
+        return self._ok_s / self._ok_n if self._ok_n else estimate_s(self.plan)[0]
 
     def point_rows(self, pid: str, n: int) -> list[dict]:
         return [self.rows[(pid, r)] for r in range(n) if (pid, r) in self.rows]

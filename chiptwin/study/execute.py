@@ -245,9 +245,10 @@ def scheduler_address(path: str) -> str:
     and ``Client.write_scheduler_file`` write); a missing or unreadable file is refused naming
     ``--scheduler-file``."""
     import json
+    from pathlib import Path
 
     try:
-        info = json.loads(open(path, encoding="utf-8").read())
+        info = json.loads(Path(path).read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ScenarioError("chiptwin", "--scheduler-file", path,
                             "no such file: a scheduler file is written by `dask scheduler "
