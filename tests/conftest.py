@@ -175,7 +175,7 @@ SLOW = {
     "tests/fidelity/test_dsp_bound.py",  # fixed and float whole runs, same seeds
     "tests/fidelity/test_coverage.py",  # auto and the reference, 4 seeds each
     "tests/fidelity/test_shot_bound.py::test_window_total_moves_within_the_charge_and_far_below_tv",
-    "tests/fidelity/test_events_estimate.py::test_drawn_windows_are_the_runs",
+    "tests/fidelity/test_events_estimate.py::test_estimated_filled_windows_are_the_runs",
     "tests/study/test_engine.py::test_serial_pool_and_dask_give_identical_tables",
     "tests/study/test_engine.py::test_killed_study_resumes_to_the_same_tables",
     "tests/study/test_engine.py::test_changed_study_is_refused_for_resumption",

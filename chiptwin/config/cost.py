@@ -7,11 +7,10 @@ cost per unit (:func:`wall_estimate`, term by term):
   the ``binned``/``events`` levels) and read by the DSP at its level (``float``, ``fixed``,
   ``rtl``);
 * **chip events**: a fixed cost per frame (the SimPy processes, the trace);
-* **arrival times** (``events`` level): per window and site pixel, the light's integral; for a
-  window of up to :data:`EVENTS_DRAWN_MAX` expected electrons (:func:`window_electrons`, the
-  closed forms' typical light, not the bound), the cells of the rate refined and one draw per
-  arrival (above it the count and the full-well time are drawn from order statistics, at no
-  cost per photon), each dearer over the cascade's dense output than over the closed forms;
+* **filling times** (``events`` level): ``binned``'s draws, and for each site pixel's window
+  whose well fills (:func:`window_electrons`: the closed forms' typical light, not the bound)
+  the time it filled: one Beta draw and Newton's few evaluations of the light's integral, each
+  dearer over the cascade's dense output than over the closed forms;
 * **solver** (``cascade`` kinetics): the stiff ODE per flow or per assay window;
 * **the converter as built** (any ``[chip.adc]`` effect): its expected moments per pixel-frame,
   by the sawtooth's series, or by a quadrature over exact table sums where the series does not
@@ -83,25 +82,16 @@ DSP_PIXEL_SAMPLE_S: dict[str, float] = {"float": 0.0, "fixed": 3.0e-6, "rtl": 2.
 #: kernel, no program in SimPy. Unit: s (at most 0.047 s of atp_glow's whole reference run over
 #: 82,000 pixel-samples, and of pyro_1fmol's 2.6 s over 1.56e6; 3e-6 said 0.25 s and 4.7 s).
 DSP_DEFAULT_FIXED_S: float = 1.0e-7
-#: The events level, per window (the cumulative's cells, the draws). Unit: s (snr10_requirement
-#: whole at its reference levels: 0.012 s over 65 windows; atp_glow's: 0.037 s over 80).
-EVENTS_WINDOW_S: float = 2.5e-4
-#: Per site pixel and window at the events level: its expected electrons (one light-source
-#: integral a pixel) and, above the drawing limit, the count and the full-well time. Unit: s,
-#: by kinetics level (atp_dose_response's 80 windows × 64 site pixels: 0.67 s; over the
-#: cascade's dense output 0.35 ms (pyro_1fmol, 2.6 s whole) to 0.7 ms (jssc2006_faceplate,
-#: 2.7 s whole) on a quiet machine, 2.4 ms on a loaded one).
-EVENTS_PIXEL_S: dict[str, float] = {"closed_form": 1.2e-4, "cascade": 5.0e-4}
-#: Per window at or below the drawing limit: the arrival times' cells refined over the light
-#: (ccd_100fmol: 1,516 windows of ≈ 23 e⁻ over the cascade, 5–24 s whole as the shared
-#: machine's load varied). Unit: s.
-EVENTS_REFINE_S: dict[str, float] = {"closed_form": 1.0e-3, "cascade": 7.0e-3}
-#: Per arrival time drawn, by kinetics level. Unit: s (closed form: ccd_two_wells reduced,
-#: ≈ 0.15 s a frame at the drawing limit; the cascade: ccd_two_wells' 334 drawn windows of
-#: 5,400 e⁻ on average, 29 s with the refinement).
-ARRIVAL_S: dict[str, float] = {"closed_form": 7.0e-6, "cascade": 1.2e-5}
-#: Expected electrons per window up to which every arrival is drawn (``EventPixels.MAX_EVENTS``).
-EVENTS_DRAWN_MAX: int = 20_000
+#: The events level, per window: the filling times' bookkeeping over the drawn counts. Unit: s
+#: (ccd_100fmol at its reference levels, no well filling: 0.011 s over 1,516 windows beside
+#: binned).
+EVENTS_WINDOW_S: float = 1.0e-5
+#: Per site pixel and window whose well fills at the events level: a Beta draw, Λ(T) and
+#: Newton's ≈ 3 evaluations of Λ (one light-source integral a pixel each). Unit: s, by kinetics
+#: level (closed form: pyro_1fmol at 300 fmol, 8 flows, 180 windows filled, 0.23 ms each beside
+#: binned; the cascade's dense output costs ≈ 4× the closed forms' per integral, as the site
+#: pixels' integrals did when every window was integrated: 0.12 ms against 0.5 ms).
+EVENTS_FILL_S: dict[str, float] = {"closed_form": 2.5e-4, "cascade": 1.0e-3}
 #: The cascade's yield fit, once a process (``twin.stages._fitted_yield``), and its stiff solver
 #: per assay window (a flow). Unit: s (pyro_1fmol, 8 flows: 0.67 s with the fit recomputed in a
 #: warm process, 1.1–1.4 s as a new process's first run).
@@ -308,19 +298,13 @@ def _own_terms(s: Scenario) -> list[CostTerm]:
 
 
 def _events_term(s: Scenario, kinetics: str, frames: int, length: str) -> CostTerm:
-    """The events level: every window's site pixels, and the windows at or below the drawing
-    limit (:data:`EVENTS_DRAWN_MAX`) refined and drawn arrival by arrival
-    (:func:`window_electrons`)."""
+    """The events level beside ``binned``: every window's bookkeeping, and the filling time of
+    each site pixel's window whose well fills (:func:`window_electrons` per site pixel)."""
     sites = n_sites(s)
-    e = window_electrons(s, frames)
-    drawn = e <= EVENTS_DRAWN_MAX
-    arrivals = float(e[drawn].sum())
-    seconds = (frames * (EVENTS_WINDOW_S + sites * EVENTS_PIXEL_S[kinetics])
-               + drawn.sum() * EVENTS_REFINE_S[kinetics] + arrivals * ARRIVAL_S[kinetics])
-    return CostTerm(f"{frames} windows × ({EVENTS_WINDOW_S:g} s + {sites} site pixels × "
-                    f"{EVENTS_PIXEL_S[kinetics]:g} s), {int(drawn.sum())} drawn (≤ "
-                    f"{EVENTS_DRAWN_MAX} e⁻) × {EVENTS_REFINE_S[kinetics]:g} s and ≈ "
-                    f"{arrivals:.3g} arrival times × {ARRIVAL_S[kinetics]:g} s", seconds,
+    filled = int(np.sum(window_electrons(s, frames) / sites >= s.chip.pixel.full_well_e)) * sites
+    seconds = frames * EVENTS_WINDOW_S + filled * EVENTS_FILL_S[kinetics]
+    return CostTerm(f"{frames} windows × {EVENTS_WINDOW_S:g} s and {filled} site-pixel windows "
+                    f"whose well fills × {EVENTS_FILL_S[kinetics]:g} s", seconds,
                     f"run.fidelity.photons, run.fidelity.kinetics, sites.at_pixels, {length}")
 
 
@@ -330,8 +314,7 @@ def window_electrons(s: Scenario, frames: int) -> np.ndarray:
     a pyrosequencing flow's 1-mer decays as ``e^{−k_a t}`` from the flow's start, an ATP glow as
     ``e^{−k t}``, the rest constant at :func:`~chiptwin.config.budget.max_site_photons`), times
     the site's own pixel's share (:func:`site_pixel_share`), QE and the sites, plus the site
-    pixels' mean dark charge (which alone puts a 100 µm diode at room temperature past the
-    drawing limit). Unit: e⁻."""
+    pixels' mean dark charge. Unit: e⁻."""
     a, c, px = s.assay, s.chip, s.chip.pixel
     t = np.arange(frames) * c.timing.frame_period_s - a.start_s  # window starts, light-relative
     gain = site_pixel_share(s) * px.qe * n_sites(s)

@@ -69,22 +69,23 @@ def common_draws(a: dict[str, str], b: dict[str, str]) -> bool:
 
     The kTC, read-noise and comparator normals have a stream of their own
     (:func:`chiptwin.pixel.binned_codes`' ``normal_rng``), the same whatever the counts drew;
-    the DSP and converter levels read the same codes. The counts are common when both levels
-    draw them the same way: the same photon and shot level and the same light, or the same
-    light's means changed under the ``gaussian`` shot level (one normal a pixel-frame,
+    the DSP and converter levels read the same codes. The ``binned`` and ``events`` levels draw
+    the same counts (the events level only times the wells' filling from them). The counts are
+    common when both levels draw them the same way: the same shot level and the same light, or
+    the same light's means changed under the ``gaussian`` shot level (one normal a pixel-frame,
     ``rint(λ + √λ·z)``: the same ``z`` whatever ``λ``). Not under ``poisson`` (NumPy's Poisson
     draws of other means from one stream are not coupled: on atp_glow na2 against psf over 4
-    seeds left a 1.8 % half-width on the signal), nor across photon or shot levels (``events``
-    draws arrival times where ``binned`` draws counts). The ``expected`` level draws nothing.
-    A coarse ADC re-rounds a moved mean: its quantization is common only where the light is.
+    seeds left a 1.8 % half-width on the signal), nor across shot levels (a Poisson count and
+    the rounded normal). The ``expected`` level draws nothing. A coarse ADC re-rounds a moved
+    mean: its quantization is common only where the light is.
     """
-    if a["photons"] != b["photons"]:
-        return False
-    if a["photons"] == "expected":
+    sampled = ("binned", "events")
+    if a["photons"] == b["photons"] == "expected":
         return True
+    if a["photons"] not in sampled or b["photons"] not in sampled:
+        return False
     same_light = a["kinetics"] == b["kinetics"] and a["optics"] == b["optics"]
-    return a["shot"] == b["shot"] and (same_light or (a["shot"] == "gaussian"
-                                                      and a["photons"] == "binned"))
+    return a["shot"] == b["shot"] and (same_light or a["shot"] == "gaussian")
 
 
 @dataclass(frozen=True)

@@ -362,7 +362,7 @@ def chain_chunk(
 
 @NJIT
 def frame_codes(
-    source, normal, mean_e, counted_pixels, counted_e, full_well, ktc, read_noise, true_cds,
+    source, normal, mean_e, report_pixels, report_e, full_well, ktc, read_noise, true_cds,
     pedestal, cg_V, v_min, lsb, adc_gain, offset, top, gauss_min_mean, conv, codes_out,
 ):  # fmt: skip
     """Frames of the ``binned`` level, one after another: the counts from ``source``, the kTC,
@@ -374,8 +374,8 @@ def frame_codes(
     ``mean_e`` is ``(n_frames, n)``: the expected charge of each pixel in each frame. Per frame,
     in the order of ``sample_frame`` (so the draws are its draws): the Poisson count of every
     pixel (:func:`gaussian_count` for means ≥ ``gauss_min_mean``; ``inf`` = exact Poisson
-    everywhere), clipped at ``full_well`` (then replaced by ``counted_e[f]`` for ``counted_pixels``,
-    charge counted another way); if ``ktc > 0`` the signal kTC draw of every pixel, then (without
+    everywhere), written to ``report_e[f]`` for ``report_pixels`` (the ``events`` level times
+    their wells' filling from these counts), then clipped at ``full_well``; if ``ktc > 0`` the signal kTC draw of every pixel, then (without
     ``true_cds``) the reset kTC draw of every pixel; the ``(M, n)`` reset samples' read noise, the
     ``(M, n)`` signal samples' read noise. Each sample is formed and converted as in
     ``read_out``, ``to_volts`` and ``adc_convert`` (the ideal ``conv``), or as built by
@@ -398,10 +398,11 @@ def frame_codes(
     n_ktc = (1 if true_cds else 2) if ktc > 0.0 else 0
     for f in range(n_frames):
         for i in range(n):
-            count = gaussian_count(source, source, mean_e[f, i], gauss_min_mean, False)
-            collected[i] = min(count, full_well)
-        for j in range(counted_pixels.size):
-            collected[counted_pixels[j]] = counted_e[f, j]
+            collected[i] = gaussian_count(source, source, mean_e[f, i], gauss_min_mean, False)
+        for j in range(report_pixels.size):
+            report_e[f, j] = collected[report_pixels[j]]
+        for i in range(n):
+            collected[i] = min(collected[i], full_well)
         for phase in range(n_ktc + 2 * m):
             j = phase - n_ktc  # the sample row: reset rows 0 … M − 1, then the signal rows
             for i in range(n):

@@ -101,8 +101,8 @@ def binned_codes(
     offset_lsb: float | None = None,
     gain_error: float | None = None,
     converter: Converter | None = None,
-    counted_pixels: ArrayLike = (),
-    counted_e: ArrayLike | None = None,
+    report_pixels: ArrayLike = (),
+    report_e: NDArray[np.float64] | None = None,
     threads: int | None = None,
     shot_noise: str = "poisson",
     normal_rng: np.random.Generator | Sequence[np.random.Generator] | None = None,
@@ -130,12 +130,12 @@ def binned_codes(
         pixel). An ideal one gives the keywords' codes bit for bit. Comparator noise is folded
         into each sample's read-noise draw (one Gaussian of the summed variance,
         :func:`chiptwin.pixel._kernels.sample_noise`): it draws nothing more and moves no stream.
-    counted_pixels : array_like of int (n_counted,), optional
-        Pixels (indices along ``n_pixels``) whose collected charge was counted another way (the
-        ``events`` photon level). Their Poisson draws are still made, and then replaced, as
-        ``read_out`` on a copy of the clipped counts with these entries replaced would have it.
-    counted_e : array_like (n_frames, n_counted), optional
-        Their collected charge in each frame. Unit: e⁻.
+    report_pixels : array_like of int (n_report,), optional
+        Pixels (indices along ``n_pixels``) whose drawn counts are written to ``report_e`` (the
+        ``events`` level times their wells' filling from them). Nothing else changes: the codes
+        and the streams are those of a call without them.
+    report_e : ndarray of float64 (n_frames, n_report), optional
+        Filled with those pixels' counts in each frame, before the full-well clip. Unit: e⁻.
     threads : int, optional
         Threads drawing the chunks (default :func:`default_threads`); never changes the codes.
     shot_noise : {"poisson", "gaussian"}
@@ -165,14 +165,14 @@ def binned_codes(
     conv = resolve_converter(converter, bits, v_min_V, v_max_V, offset_lsb, gain_error)
     conv.check_pixels(lam.shape[1])
     readout = _readout_consts(pedestal_V, conversion_gain_uV_per_e, conv)
-    pixels, counted = _counted(counted_pixels, counted_e, lam.shape)
+    pixels, report = _report(report_pixels, report_e, lam.shape)
     codes = np.empty((lam.shape[0], 2 * m, lam.shape[1]), code_dtype(conv.bits))
     if shot_noise not in SHOT_MIN_MEAN_E:
         raise ValueError(f"shot_noise = {shot_noise!r}: must be one of {sorted(SHOT_MIN_MEAN_E)}")
     consts = (fw, ktc, read, bool(true_cds), *readout, SHOT_MIN_MEAN_E[shot_noise])
     fold = (read, readout[1])  # read noise (e⁻) and conversion gain (V/e⁻): comparator folded
     if isinstance(rng, np.random.Generator):
-        _draw_chunk(rng, normal_rng, lam, pixels, counted, consts,
+        _draw_chunk(rng, normal_rng, lam, pixels, report, consts,
                     conv.kernel_conv(0, None, fold), codes)
         return codes
     streams = list(rng)
@@ -185,9 +185,10 @@ def binned_codes(
     def draw(c: int) -> None:
         lo, hi = c * CHUNK_PIXELS, min((c + 1) * CHUNK_PIXELS, lam.shape[1])
         mine = (pixels >= lo) & (pixels < hi)
-        _draw_chunk(streams[c], normals[c], lam[:, lo:hi], pixels[mine] - lo,
-                    np.ascontiguousarray(counted[:, mine]), consts,
+        drawn = np.empty((lam.shape[0], int(mine.sum())))
+        _draw_chunk(streams[c], normals[c], lam[:, lo:hi], pixels[mine] - lo, drawn, consts,
                     conv.kernel_conv(lo, hi, fold), codes[:, :, lo:hi])
+        report[:, mine] = drawn  # the chunks' columns are disjoint: safe from threads
 
     threads = default_threads() if threads is None else int(threads)
     if n_chunks == 1 or threads <= 1:
@@ -199,7 +200,7 @@ def binned_codes(
 
 
 def _draw_chunk(rng: np.random.Generator, normal_rng: np.random.Generator | None, lam, pixels,
-                counted, consts, conv, codes) -> None:
+                report, consts, conv, codes) -> None:
     """:func:`_kernels.frame_codes` on ``rng`` (and ``normal_rng``, if given, for the normals):
     a PCG64 or SFC64 state advanced inline and written back (:mod:`chiptwin.pixel._random`), any
     other bit generator through numba's ``Generator`` interface (the same draws, ≈ 2× slower)."""
@@ -218,7 +219,7 @@ def _draw_chunk(rng: np.random.Generator, normal_rng: np.random.Generator | None
         normal_src = shot  # one stream: the same state (or Generator) advanced by every draw
     else:
         normal_src = normal_rng if normal is None else normal
-    _kernels.frame_codes(shot, normal_src, lam, pixels, counted, *consts, conv, out)
+    _kernels.frame_codes(shot, normal_src, lam, pixels, report, *consts, conv, out)
     if out is not codes:
         codes[...] = out
     if source is not None:
@@ -227,14 +228,19 @@ def _draw_chunk(rng: np.random.Generator, normal_rng: np.random.Generator | None
         _random.put_state(normal_rng, normal)
 
 
-def _counted(pixels: ArrayLike, counted_e: ArrayLike | None, shape: tuple[int, int]
-             ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-    """Checked ``counted_pixels`` and ``counted_e`` for a ``(n_frames, n_pixels)`` run."""
+def _report(pixels: ArrayLike, report_e: NDArray[np.float64] | None, shape: tuple[int, int]
+            ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Checked ``report_pixels`` and ``report_e`` for a ``(n_frames, n_pixels)`` run."""
     idx = np.asarray(pixels, dtype=np.int64).reshape(-1)
     if idx.size and (idx.min() < 0 or idx.max() >= shape[1]):
-        raise ValueError(f"counted_pixels = {pixels!r}: must be indices in [0, {shape[1] - 1}]")
-    values = np.zeros((shape[0], 0)) if counted_e is None else counted_e
-    arr = np.ascontiguousarray(check_array("counted_e", values, 0.0))
-    if arr.shape != (shape[0], idx.size):
-        raise ValueError(f"counted_e has shape {arr.shape}: must be {(shape[0], idx.size)}")
-    return idx, arr
+        raise ValueError(f"report_pixels = {pixels!r}: must be indices in [0, {shape[1] - 1}]")
+    if report_e is None:
+        if idx.size:
+            raise ValueError("report_e: an array (n_frames, n_report) is needed with "
+                             "report_pixels")
+        return idx, np.zeros((shape[0], 0))
+    if (not isinstance(report_e, np.ndarray) or report_e.dtype != np.float64
+            or report_e.shape != (shape[0], idx.size) or not report_e.flags.c_contiguous):
+        raise ValueError(f"report_e: must be a C-contiguous float64 array of shape "
+                         f"{(shape[0], idx.size)}")
+    return idx, report_e

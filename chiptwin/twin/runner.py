@@ -303,8 +303,9 @@ class _FrameReader:
     block of frames ``k … k + B − 1`` (``B`` = :attr:`Scene.block_frames`) is made: its moments
     (:meth:`Scene.pixel_block`) and, at the ``binned`` and ``events`` levels, its codes in one
     call of :func:`chiptwin.pixel.binned_codes`, drawing what reading the frames one by one
-    would. At the ``events`` level the site pixels' charge is counted by
-    :class:`~chiptwin.twin.stages.EventPixels` (its own stream) and replaces their Poisson draws.
+    would. At the ``events`` level :class:`~chiptwin.twin.stages.EventPixels` (its own stream)
+    times the filling of the site pixels' wells from the counts drawn there (the codes are
+    ``binned``'s, bit for bit).
     Only the current block is held (and what the frame memory still holds of earlier ones).
     """
 
@@ -366,19 +367,22 @@ class _FrameReader:
 
     def _draw(self, k: int, stop: int) -> np.ndarray:
         sensor = self.scene.sensor
-        pixels, counted = (), None
+        pixels, drawn = (), None
         if self.events is not None:
             pixels = self.events.pixels
-            counted = np.array([self.events.collect(*self.scene.sch.window_s(j))
-                                for j in range(k, stop)])
-        return pixel.binned_codes(
+            drawn = np.empty((stop - k, len(pixels)))
+        codes = pixel.binned_codes(
             self.streams, self.moments.mean_e, full_well_e=sensor.full_well_e,
             ktc_e=sensor.ktc_e, read_noise_e=sensor.read_noise_e,
             n_samples=sensor.cms_samples, true_cds=sensor.true_cds,
             conversion_gain_uV_per_e=sensor.conversion_gain_uV_per_e,
             pedestal_V=sensor.pedestal_V, converter=sensor.converter,
-            counted_pixels=pixels, counted_e=counted, shot_noise=self.s.run.fidelity.shot,
+            report_pixels=pixels, report_e=drawn, shot_noise=self.s.run.fidelity.shot,
             normal_rng=self.normal_streams)
+        if self.events is not None:
+            for j in range(k, stop):
+                self.events.fill(*self.scene.sch.window_s(j), drawn[j - k])
+        return codes
 
     def close(self) -> None:
         if self.saved is not None:

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from scipy import sparse
 
-from chiptwin import kinetics, limits, optics, photons, pixel
+from chiptwin import kinetics, limits, optics, pixel
 from chiptwin.config import Scenario
 from chiptwin.config.budget import amount_key
 from chiptwin.constants import ZERO_C_K
@@ -421,26 +421,22 @@ def sensor_model(s: Scenario, rng: np.random.Generator,
 
 
 class EventPixels:
-    """The ``events`` photon level for the pixels under the sites: timing inside a window.
+    """The ``events`` photon level for the pixels under the sites: when each well filled.
 
     Photons arrive as an inhomogeneous Poisson process, are thinned by QE × gain and merged with
-    dark electrons; the collected charge is their count, clipped at the full well, and the time the
-    well filled is kept (which counts per window cannot give). Below :attr:`MAX_EVENTS` expected
-    electrons per window every arrival is drawn (:func:`chiptwin.photons.arrival_times`). Above
-    it, the count N is drawn first (exact Poisson of the integral) and, if the well fills, its
-    filling time is the ``need``-th of N arrivals, i.e. ``Λ⁻¹(Λ(T)·B)`` with
-    ``B ~ Beta(need, N − need + 1)`` (order statistics of N i.i.d. arrivals with density ∝ rate):
-    the same joint distribution without drawing 1e9 photons. Other pixels stay ``binned``.
+    dark electrons: the electrons of a window are a Poisson process of rate λ(t), mean
+    Λ(T) = ∫λ. The collected charge is their count N, clipped at the full well: the ``binned``
+    level's count, which the pixel kernel draws and reports (:func:`chiptwin.pixel.binned_codes`'s
+    ``report_pixels``), so the two levels read the same codes bit for bit. What counts cannot
+    give is the time the well filled: given N, the arrival times are N i.i.d. draws of density
+    λ/Λ(T) (Snyder & Miller, *Random Point Processes in Time and Space*, 1991, Thm 2.3.1), so
+    the ``need``-th arrival is ``Λ⁻¹(Λ(T)·B)`` with ``B ~ Beta(need, N − need + 1)``, the
+    ``need``-th order statistic of N uniforms (David & Nagaraja, *Order Statistics*, 2003,
+    §2.1). That is the joint law of (count, filling time) of drawing every arrival
+    (:func:`chiptwin.photons.arrival_times`, tested against it), at the cost of the windows whose
+    well fills; drawing every arrival of a dim window over the cascade's dense output took
+    16–100 ms a window.
     """
-
-    MAX_EVENTS = 20_000  # above this, order statistics give the same joint law at no cost
-    #: The arrival times' cells are refined to this relative tolerance, or to this many times
-    #: a source's own (``accuracy_rel``: the cascade's solver tolerance, 1e-8), whichever is
-    #: looser. Refined past the solver's own error, the cumulative's Hermite check bisected the
-    #: solver's step kinks down to floating point: 0.7–1.1 million cells and 13–21 s a
-    #: 1-s window of ccd_two_wells at the cascade level (64 cells and 20 ms at 10× its rtol).
-    REL_TOL = 1e-9
-    SOURCE_TOL_FACTOR = 10.0
 
     def __init__(self, source: LightSource, coupling: np.ndarray, pixels: np.ndarray,
                  sensor: SensorModel, rng: np.random.Generator) -> None:
@@ -454,40 +450,36 @@ class EventPixels:
         self.rng = rng
         self.saturation_s: list[np.ndarray] = []
 
-    def electrons_until(self, t0_s: float, t_s: np.ndarray) -> np.ndarray:
-        """Λ(t): expected electrons of each site pixel from ``t0_s`` to ``t_s`` (one t each)."""
+    def electrons_until(self, t0_s: float, t_s: np.ndarray,
+                        at: np.ndarray | None = None) -> np.ndarray:
+        """Λ(t): expected electrons of each site pixel (or those at positions ``at``) from
+        ``t0_s`` to ``t_s`` (one t each)."""
+        at = np.arange(len(self.pixels)) if at is None else at
         photons = np.array([self.weights[p] @ self.source.photons(np.array([t0_s, t]))[:, 0]
-                            for p, t in enumerate(t_s)])
-        return self.qe * photons + self.dark * (t_s - t0_s)
+                            for p, t in zip(at, t_s, strict=True)])
+        return self.qe[at] * photons + self.dark[at] * (t_s - t0_s)
 
-    def collect(self, t0_s: float, t1_s: float) -> np.ndarray:
-        """Collected electrons of the site pixels in one window; records saturation times."""
-        total = self.electrons_until(t0_s, np.full(len(self.pixels), t1_s))
-        if total.sum() <= self.MAX_EVENTS:
-            tol = max(self.REL_TOL, self.SOURCE_TOL_FACTOR * getattr(self.source, "accuracy_rel",
-                                                                      0.0))
-            ev = photons.arrival_times(self.source, t0_s, t1_s, self.rng, weights=self.weights,
-                                       rel_tol=tol)
-            el = photons.detected_electrons(ev, self.rng, qe=self.qe, dark_e_per_s=self.dark)
-            counts = np.diff(el.offsets)
-            sat = [el.pixel(p)[self.need - 1] if counts[p] >= self.need else np.inf
-                   for p in range(len(self.pixels))]
-        else:
-            counts = self.rng.poisson(total)
-            full = counts >= self.need
-            b = self.rng.beta(self.need, np.maximum(counts - self.need + 1, 1))
-            sat = np.where(full, self._invert(t0_s, t1_s, b * total, total), np.inf)
-        self.saturation_s.append(np.asarray(sat, dtype=np.float64))
-        return np.minimum(counts, self.need).astype(np.float64)
+    def fill(self, t0_s: float, t1_s: float, counts: np.ndarray) -> None:
+        """Record when each site pixel's well filled in the window ``[t0_s, t1_s)``, given the
+        electrons it drew there (before the full-well clip): ``inf`` where it did not fill."""
+        sat = np.full(len(self.pixels), np.inf)
+        full = np.flatnonzero(counts >= self.need)
+        if full.size:
+            b = self.rng.beta(self.need, counts[full] - self.need + 1)
+            total = self.electrons_until(t0_s, np.full(full.size, t1_s), full)
+            sat[full] = self._invert(t0_s, t1_s, b * total, total, full)
+        self.saturation_s.append(sat)
 
-    def _electron_rate(self, t_s: np.ndarray) -> np.ndarray:
-        """λ(t) = dΛ/dt: electrons per second of each site pixel at its own time ``t_s[p]``."""
-        rate = self.source.rate(t_s)  # (n_sites, n_pixels): every site at every pixel's time
-        return self.qe * np.einsum("ps,sp->p", self.weights, rate) + self.dark
+    def _electron_rate(self, t_s: np.ndarray, at: np.ndarray) -> np.ndarray:
+        """λ(t) = dΛ/dt: electrons per second of the site pixels at positions ``at``, each at
+        its own time ``t_s[i]``."""
+        rate = self.source.rate(t_s)  # (n_sites, len(at)): every site at every pixel's time
+        return self.qe[at] * np.einsum("ps,sp->p", self.weights[at], rate) + self.dark[at]
 
-    def _invert(self, t0_s: float, t1_s: float, target: np.ndarray,
-                total: np.ndarray) -> np.ndarray:
-        """Λ⁻¹: the time each pixel reaches ``target`` electrons (``total`` = Λ(t1)).
+    def _invert(self, t0_s: float, t1_s: float, target: np.ndarray, total: np.ndarray,
+                at: np.ndarray | None = None) -> np.ndarray:
+        """Λ⁻¹: the time each site pixel (those at positions ``at``, default all) reaches
+        ``target`` electrons (``total`` = Λ(t1)).
 
         Newton's method on Λ, whose derivative is the electron rate, kept inside a bracket that
         starts as the window (Λ is increasing, so the root is in it) and shrinks with every
@@ -498,14 +490,15 @@ class EventPixels:
         bisection also ended: 3 evaluations of Λ instead of 60, on average over pyro_1fmol's
         and pyro_paper_yield's flows, the times within 3 ulp of bisection's.
         """
+        at = np.arange(len(self.pixels)) if at is None else at
         lo, hi = np.full(len(target), t0_s), np.full(len(target), t1_s)
         t = t0_s + (t1_s - t0_s) * np.clip(target / np.where(total > 0, total, 1.0), 0.0, 1.0)
         tol = 4 * np.spacing(max(abs(t0_s), abs(t1_s)))
         for _ in range(100):  # a safeguard: the bracket alone halves to an ulp in < 64 steps
-            excess = self.electrons_until(t0_s, t) - target
+            excess = self.electrons_until(t0_s, t, at) - target
             below = excess < 0
             lo, hi = np.where(below, t, lo), np.where(below, hi, t)
-            rate = self._electron_rate(t)
+            rate = self._electron_rate(t, at)
             with np.errstate(divide="ignore", invalid="ignore"):
                 delta = excess / rate
             done = ((rate > 0) & (np.abs(delta) <= tol)) | (hi - lo <= tol)

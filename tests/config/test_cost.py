@@ -32,11 +32,11 @@ def test_the_terms_count_what_the_run_does():
     ps = next(t for t in est if "pixel-samples (binned)" in t.what)
     assert ps.seconds == pytest.approx(frames * c.n_pixels * c.samples_per_frame
                                        * cost.PIXEL_SAMPLE_S["binned"])
-    assert not any("DSP" in t.what or "arrival" in t.what or "cascade" in t.what for t in est)
+    assert not any("DSP" in t.what or "well fills" in t.what or "cascade" in t.what for t in est)
     fixed = cost.wall_estimate(scene("pyro_1fmol", "run.fidelity.dsp=fixed"))
     assert any("fixed DSP" in t.what for t in fixed)
     events = cost.wall_estimate(scene("pyro_1fmol", "run.fidelity.photons=events"))
-    assert any("site pixels" in t.what for t in events)
+    assert any("whose well fills" in t.what for t in events)
     cascade = cost.wall_estimate(scene("pyro_1fmol", "run.fidelity.kinetics=cascade"))
     assert any("8 windows of its stiff solver" in t.what for t in cascade)
     # the chip model in closed form, or in SimPy when a DSP program runs

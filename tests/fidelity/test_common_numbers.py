@@ -55,12 +55,14 @@ def test_what_common_draws_says():
     ref = {"kinetics": "cascade", "photons": "events", "optics": "psf", "shot": "poisson",
            "dsp": "fixed", "adc": "as_built"}
     assert common_draws({**ref, "dsp": "float", "adc": "ideal"}, ref)
-    assert not common_draws({**ref, "photons": "binned"}, ref)  # times against counts
+    assert common_draws({**ref, "photons": "binned"}, ref)  # the same counts
     assert not common_draws({**ref, "shot": "gaussian"}, ref)
+    assert not common_draws({**ref, "photons": "expected"}, ref)  # no draws against draws
     binned = {**ref, "photons": "binned"}
     assert not common_draws({**binned, "optics": "na2"}, binned)  # Poisson of other means
     gauss = {**binned, "shot": "gaussian"}
     assert common_draws({**gauss, "optics": "na2", "kinetics": "closed_form"}, gauss)
+    assert common_draws({**gauss, "photons": "events", "optics": "na2"}, gauss)
     assert common_draws({**ref, "photons": "expected"}, {**gauss, "photons": "expected"})
 
 

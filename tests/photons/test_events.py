@@ -250,3 +250,29 @@ def test_event_pixels_fill_time_is_the_root_of_the_exact_integral():
                 root = brentq(excess, t0, t1, xtol=1e-15, rtol=4 * np.finfo(float).eps)
                 assert got[p] == pytest.approx(root, abs=1e-12), (t0, frac, p)
                 assert excess(got[p] - 1e-11) < 0 <= excess(min(got[p] + 1e-11, t1)) + 1e-9
+
+
+@pytest.mark.parametrize("well", [300.0, 100.0])
+def test_event_pixels_fill_times_have_the_law_of_drawing_every_arrival(well):
+    """The ``events`` level's filling time, ``Λ⁻¹(Λ(T)·B)`` with ``B ~ Beta(W, N − W + 1)`` given
+    the window's count N, against the W-th of N electrons drawn arrival by arrival
+    (``arrival_times`` thinned by QE and merged with dark current) on the same counts: a
+    decaying flash plus dark current, 4,000 pixels, Λ(T) ≈ 300 e⁻; a 300-electron well fills in
+    about half the windows (the same ones on both sides), a 100-electron one in all, a third of
+    the way through the light; two-sample KS, p > 1e-3 (a Beta(W + 5, ·) fails it)."""
+    n = 4000
+    weights = np.tile(WEIGHTS[:1], (n, 1))
+    sensor = SimpleNamespace(qe=0.6, gain_map=np.ones(n), dark_e_per_s=np.full(n, 40.0),
+                             full_well_e=well)
+    drawn = detected_electrons(arrival_times(SOURCE, 0.0, 0.14, np.random.default_rng(31),
+                                             weights), np.random.default_rng(32), qe=0.6,
+                               dark_e_per_s=40.0)
+    by_events = saturation_time(drawn, well, np.random.default_rng(33))
+    ev = EventPixels(SOURCE, weights, np.arange(n), sensor, np.random.default_rng(34))
+    ev.fill(0.0, 0.14, np.diff(drawn.offsets).astype(float))
+    by_order = ev.saturation_s[0]
+    assert np.array_equal(np.isinf(by_events), np.isinf(by_order))
+    filled = np.isfinite(by_events)
+    assert (1000 < filled.sum() < 3000) if well == 300.0 else filled.all()
+    assert stats.ks_2samp(by_events[filled], by_order[filled]).pvalue > 1e-3
+    assert np.all((by_order[filled] > 0.0) & (by_order[filled] < 0.14))

@@ -27,20 +27,28 @@ def _lam(n_frames: int = 3) -> np.ndarray:
     return rng.uniform(0.0, 3e4, (n_frames, N_PIXELS))
 
 
-@pytest.mark.parametrize("case", CASES, ids=["pyro", "no-cds", "no-ktc", "errors", "counted"])
+@pytest.mark.parametrize("case", CASES, ids=["pyro", "no-cds", "no-ktc", "errors", "report"])
 def test_codes_do_not_depend_on_the_thread_count(case):
-    """1, 2 and 3 threads: the same codes, bit for bit, and the streams left in the same state."""
+    """1, 2 and 3 threads: the same codes, bit for bit, and the streams left in the same state;
+    reported counts too (one reported pixel in each chunk, in an order unlike the chunks')."""
     case = dict(case)
-    if "counted_pixels" in case:  # one counted pixel in each chunk
-        case["counted_pixels"] = [5, CHUNK_PIXELS + 7, 2 * CHUNK_PIXELS + 1]
-        case["counted_e"] = np.arange(9.0).reshape(3, 3) * 300.0
+    if "report_pixels" in case:
+        case["report_pixels"] = [CHUNK_PIXELS + 7, 5, 2 * CHUNK_PIXELS + 1]
     runs = []
     for threads in (1, 2, 3):
         streams = chunk_streams(np.random.default_rng(5), N_PIXELS)
-        codes = binned_codes(streams, _lam(), threads=threads, **case, **READOUT)
-        runs.append((codes, [g.bit_generator.state for g in streams]))
-    for codes, state in runs[1:]:
+        report = np.full((3, 3), -1.0) if "report_pixels" in case else None
+        extra = {} if report is None else {"report_e": report}
+        codes = binned_codes(streams, _lam(), threads=threads, **case, **extra, **READOUT)
+        runs.append((codes, [g.bit_generator.state for g in streams], report))
+    for codes, state, report in runs[1:]:
         assert np.array_equal(codes, runs[0][0]) and state == runs[0][1]
+        assert report is None or np.array_equal(report, runs[0][2])
+    if "report_pixels" in case:  # the counts the chunks drew: their mean within 5 σ of Poisson
+        lam = _lam()[:, case["report_pixels"]]
+        got = runs[0][2]
+        assert (got >= 0).all() and np.all(got == np.rint(got))
+        assert abs((got - lam).sum()) < 5 * np.sqrt(lam.sum())
 
 
 def test_a_forked_child_draws_with_threads_of_its_own():
@@ -78,15 +86,18 @@ def test_chunk_zero_is_the_single_stream_path():
     assert np.array_equal(small, binned_codes(np.random.default_rng(8), _lam()[:, :50], **kw))
 
 
-def test_counted_pixels_are_replaced_in_their_chunk():
+def test_reported_counts_are_those_of_their_own_pixels():
+    """Noiseless readout: the charge each reported pixel's codes carry is the count reported for
+    it, in chunk 0 and in chunk 1 (below the full well, rounding only)."""
     kw = {**CASES[0], **READOUT, "ktc_e": 0.0, "read_noise_e": 0.0}
-    where = [3, CHUNK_PIXELS + 2]
-    counted = np.full((3, 2), 5e5)
+    where = [CHUNK_PIXELS + 2, 3]
+    report = np.empty((3, 2))
     codes = binned_codes(chunk_streams(np.random.default_rng(1), N_PIXELS), _lam(), **kw,
-                         counted_pixels=where, counted_e=counted)
+                         report_pixels=where, report_e=report)
     e_per_code = 1.0 / 2**13 / 0.16e-6  # 1 V over 13 bits at 0.16 µV/e⁻
-    signal_e = (codes[:, 4:, where] - codes[:, :4, where]) * e_per_code
-    assert np.all(np.abs(signal_e - 5e5) <= 2 * e_per_code)  # noiseless: rounding only
+    signal_e = (codes[:, 4:, where] - codes[:, :4, where]).mean(axis=1) * e_per_code
+    assert np.all(np.abs(signal_e - report) <= 2 * e_per_code)
+    assert np.all(np.abs(report - _lam()[:, where]) < 5 * np.sqrt(_lam()[:, where]))
 
 
 def test_the_other_chunks_draw_sample_frames_distribution():

@@ -14,14 +14,16 @@ READOUT = dict(conversion_gain_uV_per_e=0.16, pedestal_V=0.1, bits=13, v_min_V=0
 
 def slow_codes(rng, mean_e, *, full_well_e, ktc_e, read_noise_e, n_samples, true_cds,
                conversion_gain_uV_per_e, pedestal_V, bits, v_min_V, v_max_V, offset_lsb=0.0,
-               gain_error=0.0, counted_pixels=(), counted_e=None):
-    """Frame by frame through the public functions, as the chip model read frames before."""
+               gain_error=0.0, report_pixels=(), report_e=None):
+    """Frame by frame through the public functions, as the chip model read frames before; the
+    counts of ``report_pixels`` before the full-well clip written to ``report_e``."""
     frames = []
     for k, lam in enumerate(mean_e):
-        if len(counted_pixels):
-            collected = np.minimum(rng.poisson(lam), full_well_e)
-            collected[list(counted_pixels)] = counted_e[k]
-            samples = read_out(rng, collected, ktc_e, read_noise_e, n_samples, true_cds)
+        if len(report_pixels):
+            counts = rng.poisson(lam)
+            report_e[k] = counts[list(report_pixels)]
+            samples = read_out(rng, np.minimum(counts, full_well_e), ktc_e, read_noise_e,
+                               n_samples, true_cds)
         else:
             samples = sample_frame(rng, lam, 1.0, 1.0, 0.0, full_well_e, ktc_e, read_noise_e,
                                    n_samples, true_cds)
@@ -45,7 +47,7 @@ CASES = [
     dict(full_well_e=1e5, ktc_e=40.0, read_noise_e=0.0, n_samples=2, true_cds=True,
          offset_lsb=0.37, gain_error=-0.013),
     dict(full_well_e=2e4, ktc_e=40.0, read_noise_e=6.0, n_samples=2, true_cds=True,
-         counted_pixels=[2, 5], counted_e=np.arange(80.0).reshape(40, 2) * 300.0),
+         report_pixels=[2, 5, 6]),
 ]
 
 
@@ -54,18 +56,28 @@ CASES = [
 CLIPPING = dict(conversion_gain_uV_per_e=60.0, pedestal_V=0.0, bits=8, v_min_V=0.0, v_max_V=1.0)
 
 
-@pytest.mark.parametrize("case", CASES, ids=["pyro", "no-cds", "no-ktc", "errors", "counted"])
+@pytest.mark.parametrize("case", CASES, ids=["pyro", "no-cds", "no-ktc", "errors", "report"])
 @pytest.mark.parametrize("readout", [READOUT, CLIPPING], ids=["13-bit", "8-bit-clipping"])
 def test_codes_are_those_of_the_frame_by_frame_path(case, readout):
     """Identical codes (in uint16, the narrowest type that holds them) and the same Generator
-    state after."""
+    state after; reported pixels get their counts before the clip (pixel 6 is past the full
+    well in frame 0) and their codes are those of a call that reports nothing."""
     kw = {**case, **readout}
+    reported = "report_pixels" in kw
+    if reported:
+        kw["report_e"] = np.full((40, 3), -1.0)
+        expected = np.full((40, 3), -2.0)
     a, b = np.random.default_rng(9), np.random.default_rng(9)
-    ref = slow_codes(a, _mean_e(), **kw)
+    ref = slow_codes(a, _mean_e(), **{**kw, **({"report_e": expected} if reported else {})})
     got = binned_codes(b, _mean_e(), **kw)
     assert got.dtype == np.uint16 and got.shape == ref.shape
     assert np.array_equal(got, ref)
     assert a.bit_generator.state == b.bit_generator.state
+    if reported:
+        assert np.array_equal(kw["report_e"], expected)
+        assert kw["report_e"][0, 2] > case["full_well_e"]
+        plain = {k: v for k, v in kw.items() if not k.startswith("report")}
+        assert np.array_equal(binned_codes(np.random.default_rng(9), _mean_e(), **plain), got)
     if readout is CLIPPING:
         assert (got == 255).any() and (got == 0).any()
 
@@ -97,8 +109,9 @@ def test_batches_draw_what_one_call_draws():
     (dict(bits=30), "bits"),
     (dict(v_max_V=0.0), "v_max_V"),
     (dict(gain_error=-1.0), "gain_error"),
-    (dict(counted_pixels=[3]), "counted_pixels"),
-    (dict(counted_pixels=[0], counted_e=[[1.0, 2.0]]), "counted_e"),
+    (dict(report_pixels=[3]), "report_pixels"),
+    (dict(report_pixels=[0]), "report_e"),
+    (dict(report_pixels=[0], report_e=np.zeros((1, 2))), "report_e"),
 ])
 def test_bad_arguments_raise_naming_them(kw, name):
     args = {"mean_e": [[1.0, 2.0]], **CASES[0], **READOUT, **kw}
