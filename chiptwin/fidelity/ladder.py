@@ -15,9 +15,9 @@ float). For every row:
   the means over the seeds, per site, with a delta-method Student-t interval
   (:mod:`chiptwin.fidelity.compare`), never a mean of per-seed ratios (biased upward by the
   reference's squared coefficient of variation); the site shown is the one whose interval
-  reaches furthest. Where the levels draw differently (``expected`` draws nothing; ``events``
-  draws arrival times where ``binned`` draws counts) the interval holds both levels' noise:
-  the ``crn`` field of each row says which.
+  reaches furthest. Where the levels draw differently (``expected`` draws nothing; a Poisson
+  count and the rounded normal; Poisson counts of moved means) the interval holds both
+  levels' noise: the ``crn`` field of each row says which (:func:`common_draws`).
 
 Figures (the relative ones over the sites whose mean power SNR in the reference is ≥ 10):
 ``signal_rel``, ``noise_rel`` and ``snr_rel`` (power SNR S²/N²) as ratios of means, and

@@ -12,9 +12,8 @@ figure (the ones
   error, exact on this scene) at both levels. Cached per scene hash in SQLite
   (``$XDG_CACHE_HOME/chiptwin/fidelity.sqlite``), so it is paid once. The optics reason also
   states the psf coupling's off-diagonal share at the site pixels: the cross-talk na2 misses.
-* **photons**: ``events`` and ``binned`` give the collected charge the same law (Poisson counts
-  of the same means, clipped at the same full well; ``events`` adds only arrival times), so
-  ``binned`` costs 0 against ``events``. ``expected`` draws nothing: it reports each figure's
+* **photons**: ``events`` reads ``binned``'s counts (the same draws; it adds only the time each
+  site pixel's well filled), so ``binned`` costs 0 against ``events``. ``expected`` draws nothing: it reports each figure's
   mean, where the reference's figure is spread around it; its error is how far the reference's
   figure strays, :data:`EXPECTED_SDS` standard deviations (the site signal's ``signal_sd_e``, a
   flow value's spread, a DSP output's noise).
