@@ -21,7 +21,9 @@ The error is measured in two parts whose sum is auto's against the reference:
   this scene's seeds.
 
 "holds" when the first part's interval lies within the estimate less the shot level's share;
-"exceeds" when it lies beyond; else "unresolved at N seeds" with the count that would decide.
+"agrees" when that estimate lies inside an interval of at most ±0.1 % (a calibrated stage's
+estimate is its error on the expected level, not a bound with room); "exceeds" when the
+interval lies beyond it; else "unresolved at N seeds" with the count that would decide.
 The speed-up is against the reference, timed warm where estimated within
 :data:`MAX_REFERENCE_S`.
 
@@ -48,8 +50,8 @@ import numpy as np
 from chiptwin.config import load_scenario
 from chiptwin.config.cost import wall_seconds
 from chiptwin.fidelity import resolve, run
-from chiptwin.fidelity.compare import RESOLUTION, Difference, ratio_of_means, worst
 from chiptwin.fidelity.auto import Calibrations
+from chiptwin.fidelity.compare import Difference, ratio_of_means, worst
 from chiptwin.fidelity.ladder import LEVELS, common_draws, reference_levels, with_levels
 from chiptwin.twin.levels import SEEN_SNR_POWER
 
@@ -154,14 +156,9 @@ def markdown(rows: list[dict]) -> str:
 
 
 def _needed(d: Difference, estimate: float) -> str:
-    """The seeds that would settle an unresolved row: to decide against the estimate at this
-    mean and spread where the estimate is at least the 0.1 % resolution; below it (levels that
-    differ from the reference by a law auto puts near 0) a bound that small cannot be shown on
-    draws that differ, and the count is the one that resolves 0.1 %."""
-    if estimate >= RESOLUTION:
-        need = d.seeds_to_decide(estimate)
-        return f"≈ {need or '?'} would decide at this mean"
-    return f"≈ {d.seeds_to_resolve(RESOLUTION) or '?'} would resolve 0.1 %"
+    """The seeds that would settle an unresolved row at this mean and spread (to decide against
+    the estimate, or to narrow the interval to the 0.1 % resolution)."""
+    return f"≈ {d.seeds_to_decide(estimate) or '?'} would decide"
 
 
 def _speedup(x: float) -> str:
@@ -178,7 +175,9 @@ def verdict(d: Difference, estimate: float | None) -> str:
     if v == "unresolved":
         return (f"{text}: unresolved at {d.n} seeds against the estimate {estimate:.4g} "
                 f"({_needed(d, estimate)})")
-    return f"{text}: estimate {estimate:.4g} {'bounds it' if v == 'holds' else 'EXCEEDED'}"
+    said = {"holds": "bounds it", "agrees": "lies inside the interval (agrees)",
+            "exceeds": "EXCEEDED"}[v]
+    return f"{text}: estimate {estimate:.4g} {said}"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -74,20 +74,25 @@ class Difference:
             n = math.ceil(n * 1.1)
         return n
 
-    def bounded_by(self, estimate: float) -> str:
+    def bounded_by(self, estimate: float, resolution: float = RESOLUTION) -> str:
         """``"holds"`` when the interval's largest |difference| is within ``estimate``,
-        ``"exceeds"`` when its smallest is beyond it, else ``"unresolved"``."""
+        ``"exceeds"`` when its smallest is beyond it; ``"agrees"`` when the estimate lies inside
+        an interval no wider than ``resolution`` each side (a calibrated estimate is the
+        error itself, not a bound with room: measured on other draws, its interval straddles
+        it however many seeds); else ``"unresolved"``."""
         if self.upper <= estimate:
             return "holds"
         if abs(self.value) - self.half > estimate:
             return "exceeds"
-        return "unresolved"
+        return "agrees" if self.half <= resolution else "unresolved"
 
-    def seeds_to_decide(self, estimate: float) -> int | None:
-        """Seeds that would make :meth:`bounded_by` decide, at the same mean and spread."""
-        gap = abs(estimate - abs(self.value))
-        return self.n if self.bounded_by(estimate) != "unresolved" else (
-            self.seeds_to_resolve(gap) if gap > 0 else None)
+    def seeds_to_decide(self, estimate: float, resolution: float = RESOLUTION) -> int | None:
+        """Seeds that would make :meth:`bounded_by` decide, at the same mean and spread: the
+        interval narrowed to the gap between the estimate and the mean, or to ``resolution``,
+        whichever is wider."""
+        if self.bounded_by(estimate, resolution) != "unresolved":
+            return self.n
+        return self.seeds_to_resolve(max(abs(estimate - abs(self.value)), resolution))
 
     def as_dict(self, resolution: float) -> dict:
         out = {"value": abs(self.value), "signed": self.value,

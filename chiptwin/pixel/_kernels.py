@@ -375,8 +375,9 @@ def frame_codes(
     in the order of ``sample_frame`` (so the draws are its draws): the Poisson count of every
     pixel (:func:`gaussian_count` for means ≥ ``gauss_min_mean``; ``inf`` = exact Poisson
     everywhere), written to ``report_e[f]`` for ``report_pixels`` (the ``events`` level times
-    their wells' filling from these counts), then clipped at ``full_well``; if ``ktc > 0`` the signal kTC draw of every pixel, then (without
-    ``true_cds``) the reset kTC draw of every pixel; the ``(M, n)`` reset samples' read noise, the
+    their wells' filling from these counts), then clipped at ``full_well``; if ``ktc > 0`` the
+    signal kTC draw of every pixel, then (without ``true_cds``) the reset kTC draw of every
+    pixel; the ``(M, n)`` reset samples' read noise, the
     ``(M, n)`` signal samples' read noise. Each sample is formed and converted as in
     ``read_out``, ``to_volts`` and ``adc_convert`` (the ideal ``conv``), or as built by
     :func:`convert_rows`, one sample row of ``n`` pixels at a time, the comparator noise folded

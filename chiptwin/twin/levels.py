@@ -13,10 +13,10 @@ figure (the ones
   (``$XDG_CACHE_HOME/chiptwin/fidelity.sqlite``), so it is paid once. The optics reason also
   states the psf coupling's off-diagonal share at the site pixels: the cross-talk na2 misses.
 * **photons**: ``events`` reads ``binned``'s counts (the same draws; it adds only the time each
-  site pixel's well filled), so ``binned`` costs 0 against ``events``. ``expected`` draws nothing: it reports each figure's
-  mean, where the reference's figure is spread around it; its error is how far the reference's
-  figure strays, :data:`EXPECTED_SDS` standard deviations (the site signal's ``signal_sd_e``, a
-  flow value's spread, a DSP output's noise).
+  site pixel's well filled), so ``binned`` costs 0 against ``events``. ``expected`` draws
+  nothing: it reports each figure's mean, where the reference's figure is spread around it;
+  its error is how far the reference's figure strays, :data:`EXPECTED_SDS` standard
+  deviations (the site signal's ``signal_sd_e``, a flow value's spread, a DSP output's noise).
 * **shot** (gaussian vs poisson): what the rounded normal changes in the figures
   (:func:`gaussian_moment_errors`): a window total is a weighted sum of pixel-frame counts,
   light frames minus the dark reference, so its mean moves by at most ``2F·sup|E − λ|`` and its

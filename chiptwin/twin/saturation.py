@@ -8,9 +8,10 @@ frame of every flow. This module reports, per site (``summary['saturation']``):
 * the expected charge of its pixel in every frame (before the clip) and how many frames reach the
   full well — the closed form, at every photon level;
 * at the ``events`` level, the time each well filled, the order statistic of its electrons'
-  arrivals given the window's count (:class:`chiptwin.twin.stages.EventPixels`), per flow: the time into the flow at which the well
-  first filled and how many of the flow's frames filled, beside the closed-form fill time
-  ``t*`` with ``Λ(t*) = full well`` (Λ: the expected electrons since the window opened);
+  arrivals given the window's count (:class:`chiptwin.twin.stages.EventPixels`), per flow:
+  the time into the flow at which the well first filled and how many of the flow's frames
+  filled, beside the closed-form fill time ``t*`` with ``Λ(t*) = full well`` (Λ: the
+  expected electrons since the window opened);
 * what the chip spends on its frames: frame period, frames, frame memory and DSP load, so that a
   configuration that fills and one that does not can be compared at their cost.
 """

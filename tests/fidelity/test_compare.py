@@ -97,6 +97,13 @@ def test_bounded_by_decides_only_outside_the_interval():
     assert Difference(-0.009, 0.001, 10, "").bounded_by(0.006) == "exceeds"
     d = Difference(0.005, 0.003, 10, "")
     assert d.bounded_by(0.006) == "unresolved" and d.seeds_to_decide(0.006) > 10
+    # a calibrated estimate inside a narrow interval: it is the error, measured again
+    near = Difference(0.0012, 0.0003, 80, "")
+    assert near.bounded_by(0.0011) == "agrees" and near.seeds_to_decide(0.0011) == 80
+    assert near.bounded_by(0.0011, resolution=0.0002) == "unresolved"
+    # to decide, the half-width must reach 0.1 % (the gap here is only 0.0001): 3²× the seeds
+    assert Difference(0.0012, 0.003, 10, "").seeds_to_decide(0.0011) == pytest.approx(
+        90, rel=0.3)
 
 
 def test_paired_mean_and_worst_site():
