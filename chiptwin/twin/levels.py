@@ -228,9 +228,11 @@ def gaussian_moment_errors(lam: float) -> tuple[float, float]:
 def gaussian_moment_bounds(lam_min: float) -> tuple[float, float]:
     """``(sup |E − λ|, sup |Var − λ|)`` of :func:`gaussian_moment_errors` over every mean
     ``λ ≥ lam_min``: a grid of 241 means from ``lam_min`` to 100 e⁻ (both errors are smooth in
-    λ) and, beyond, their limits 0 and 1/12 (reached to 1e-12 by λ = 100)."""
+    λ) and, beyond, their limits 0 and 1/12 (reached to 1e-12 by λ = 100): from a ``lam_min``
+    past 100 e⁻, that mean alone (241 copies of it, each an exact sum over ≈ λ + 40√λ counts,
+    took 6.7 s of auto's resolution of pyro_1fmol, whose dimmest site mean is 25,683 e⁻)."""
     lo = max(lam_min, 1e-3)
-    grid = np.geomspace(lo, max(lo, 100.0), 241)
+    grid = np.geomspace(lo, 100.0, 241) if lo < 100.0 else np.array([lo])
     errs = np.array([gaussian_moment_errors(float(x)) for x in grid])
     return float(np.max(np.abs(errs[:, 0]))), float(max(np.max(np.abs(errs[:, 1])), 1 / 12))
 

@@ -39,6 +39,12 @@ def test_moment_bounds_are_the_known_extremes():
     assert dm < 1e-7 and dv == pytest.approx(1 / 12, rel=1e-3)
     dm0, dv0 = gaussian_moment_bounds(0.05)
     assert 0.08 < dm0 < 0.085 and 0.17 < dv0 < 0.18
+    # past 100 e⁻ the limits themselves, from that mean alone (a bright scene's dimmest site)
+    for lam in (100.0, 25683.0):
+        dm, dv = gaussian_moment_bounds(lam)
+        assert dm < 1e-12 and dv == pytest.approx(1 / 12, abs=1e-6)  # the sums cancel to ~4e-8
+        assert (dm, dv) == (abs(gaussian_moment_errors(lam)[0]),
+                            max(abs(gaussian_moment_errors(lam)[1]), 1 / 12))
 
 
 @pytest.mark.parametrize("lam_dark, lam_light", [(0.5, 1.5), (20.0, 1000.0)])
