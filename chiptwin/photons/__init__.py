@@ -6,7 +6,9 @@ Levels (the fidelity ladder): ``expected`` (means and variances, in :mod:`chiptw
 rescaling through the integrated rate). :func:`saturation_time` turns arrival times into the time a
 pixel's well fills (QE as thinning, dark current as a second Poisson stream);
 :func:`saturation_time_from_rate` draws the same time straight from the rate (one Gamma variate
-per pixel), at any light level.
+per pixel), at any light level. The chip model's ``events`` level draws the same joint law of a
+window's count and filling time without drawing arrivals
+(:class:`chiptwin.twin.stages.EventPixels`); these are its references.
 """
 
 from __future__ import annotations

@@ -17,9 +17,10 @@ share of a site's photons reaching the pixel, possibly times QE). Its integrated
   boundaries — are therefore exactly Poisson with the exact mean; times inside a cell carry the
   interpolation error (``PhotonEvents.cdf_rel_error``).
 
-Randomness only from the ``rng`` passed in. The chip model uses ``events`` only for the pixels and
-windows where timing inside a window matters (non-destructive multiple sampling, saturation time:
-:func:`saturation_time`).
+Randomness only from the ``rng`` passed in. The chip model's ``events`` level does not draw the
+arrivals: it needs only each site pixel's count and the time its well filled, whose joint law
+it draws from the count and an order statistic (:class:`chiptwin.twin.stages.EventPixels`,
+tested against :func:`arrival_times` and :func:`saturation_time`).
 """
 
 from __future__ import annotations
