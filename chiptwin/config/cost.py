@@ -149,11 +149,19 @@ FILM_PROFILES: int = 3
 #: summary's figures (``chiptwin.optics.top.Top.parts``).
 TOP_PARTS: dict[str, int] = {"solution": 0, "air": 1, "glass": 2}
 FILM_PROFILE_ANGLES: int = 36_864
-#: Per part of a top's returned light (``TOP_PARTS``) when the sites have a footprint: the
-#: returned light's profile integrated over the footprint and the diodes (split at the top's
-#: critical angle) for the coupling and the summary's with/without-top figures. Unit: s
-#: (pyro_1fmol reduced, 20 µm footprints, warm: +0.48 s under air, +0.65 s under a glass lid).
-TOP_FOOTPRINT_PART_S: float = 0.3
+#: Per profile of the light integrated over the sites' footprint and the diodes
+#: (``chiptwin.optics.coupling_stack`` with a footprint: the disc's profile, a part of a top's
+#: returned light split at the top's critical angle): one profile, and one per part of a top's
+#: returned light (``TOP_PARTS``). The ``psf`` level's coupling through a stated stack under a
+#: physical law makes 1 + parts of them; the summary's with/without-top figures 2 + parts at
+#: every level (``raytrace`` reads its traced matrix instead: ≈ 1 ms). Unit: s (warm, median of 3,
+#: the coupling and the top figures timed alone, per profile: luciferase_label's 10 µm
+#: footprints 0.038–0.050 s (no top, air, glass), pyro_1fmol's 20 µm 0.065–0.089 s,
+#: jssc2006_faceplate's and pyro_long_read's 0.053–0.078 s; luciferase_label whole at auto's
+#: other levels: 0.257 s at psf, 0.153 s at raytrace, 2026-11-28). Not counted: the sparse
+#: coupling's kernel (above :data:`chiptwin.limits.DENSE_COUPLING_ENTRIES`) grown to the array
+#: under a lid, pyro_array_256's 6.2 s at psf (0.33 s at raytrace).
+FOOTPRINT_PROFILE_S: float = 0.06
 #: The factor within which the estimate is held of measured wall time (tests/config/test_cost.py).
 ESTIMATE_FACTOR: float = 10.0
 #: Per worker of a study's process pool: spawn, import numpy/numba/chiptwin, load the kernels.
@@ -284,12 +292,7 @@ def _own_terms(s: Scenario) -> list[CostTerm]:
                               f"{FILM_ELEMENT_S:g} s", elements * FILM_ELEMENT_S,
                               "optics.layers, optics.thin_film_um, optics.band_fwhm_nm, "
                               "optics.top.medium"))
-    parts = TOP_PARTS[s.optics.top.medium]
-    if parts and s.sites.footprint_radius_um > 0 and s.assay.kind != "flux":
-        terms.append(CostTerm(f"the top's returned light: {parts} part(s) over the sites' "
-                              f"footprints × {TOP_FOOTPRINT_PART_S:g} s",
-                              parts * TOP_FOOTPRINT_PART_S,
-                              "optics.top.medium, sites.footprint_radius_um"))
+    terms += _footprint_terms(s)
     if s.assay.kind == "pyrosequencing" and s.assay.caller == "dephase":
         sites = n_sites(s)
         flows = s.assay.n_flows
@@ -304,6 +307,27 @@ def _own_terms(s: Scenario) -> list[CostTerm]:
                               f"its stiff solver × {per:.3g} s",
                               fit + w * per,
                               "run.fidelity.kinetics, assay.n_flows"))
+    return terms
+
+
+def _footprint_terms(s: Scenario) -> list[CostTerm]:
+    """The light's profiles integrated over the sites' footprints (:data:`FOOTPRINT_PROFILE_S`):
+    the ``psf`` coupling's through a stated stack under a physical law, and the summary's
+    with/without-top figures."""
+    parts = TOP_PARTS[s.optics.top.medium]
+    if s.sites.footprint_radius_um <= 0 or s.optics.coupling != "contact" or s.assay.kind == "flux":
+        return []
+    keys = "optics.top.medium, sites.footprint_radius_um"
+    terms = []
+    optics = _level(s, "optics", "psf", ("na2", "psf", "raytrace"))
+    if optics == "psf" and s.optics.stated_stack and s.optics.law != "lambertian_na2":
+        terms.append(CostTerm(f"the psf coupling through the stack: {1 + parts} profile(s) over "
+                              f"the sites' footprints × {FOOTPRINT_PROFILE_S:g} s",
+                              (1 + parts) * FOOTPRINT_PROFILE_S, "run.fidelity.optics, " + keys))
+    if parts:
+        terms.append(CostTerm(f"the summary's top figures: {2 + parts} profiles over a site's "
+                              f"footprint × {FOOTPRINT_PROFILE_S:g} s",
+                              (2 + parts) * FOOTPRINT_PROFILE_S, keys))
     return terms
 
 
