@@ -57,8 +57,10 @@ from chiptwin.config.schema import Scenario
 from chiptwin.constants import N_A, s_to_ticks
 
 #: Per run: scene preparation, coupling, outputs gathered (not the interpreter's start). Unit: s
-#: (snr10_requirement whole, warm: 0.009 s; recalibrated 2026-11-28 with
-#: ``benchmarks/bench_estimates.py``).
+#: (warm, median of 5 alternating with other scenes, 2026-11-28: snr10_requirement whole at
+#: auto 0.005 s; what the other terms leave of atp_glow's 0.018 s 0.012 s, of
+#: atp_dose_response's 0.026 s 0.008 s. The 0.05–0.1 s once seen beyond the terms were the
+#: optics summary's footprint profiles, now :data:`FOOTPRINT_PROFILE_S`).
 RUN_S: float = 0.01
 #: Per frame of a chip model run in SimPy (a DSP program, the RTL, a memory or DSP that does not
 #: keep up): the events (reset, integrate, convert, write, DSP job) and the trace. Unit: s
@@ -103,13 +105,15 @@ ARRIVAL_S: dict[str, float] = {"closed_form": 7.0e-6, "cascade": 1.2e-5}
 #: Expected electrons per window up to which every arrival is drawn (``EventPixels.MAX_EVENTS``).
 EVENTS_DRAWN_MAX: int = 20_000
 #: The cascade's yield fit, once a process (``twin.stages._fitted_yield``), and its stiff solver
-#: per assay window (a flow). Unit: s (pyro_1fmol, 8 flows: 0.67 s with the fit recomputed in a
-#: warm process, 1.1–1.4 s as a new process's first run).
-CASCADE_FIT_S: float = 0.8
-CASCADE_WINDOW_S: float = 0.03
+#: per assay window (a flow). Unit: s (warm, the fit's cache emptied, median of 5, 2026-11-28:
+#: the fit 0.148 s on pyro_1fmol, 0.042 s on ccd_100fmol; the solver 0.0036–0.0044 s a flow on
+#: both, 8 and 25 flows of 18 bases. They were 0.8 and 0.03: ccd_100fmol at auto estimated
+#: 1.60 s, measured 0.19 s. A new process's first run adds ≈ 1 s of loading).
+CASCADE_FIT_S: float = 0.15
+CASCADE_WINDOW_S: float = 0.004
 #: The template CASCADE_WINDOW_S was measured on (pyro_1fmol's 18 bases); the solver's state
-#: holds a strand share per template position, and a window costs in proportion: 0.58 s a flow
-#: for pyro_long_read's 400 bases (benchmarks/bench_long_reads.py; 0.03 × 401/19 = 0.63).
+#: holds a strand share per template position, and a window costs in proportion: 0.052 s a
+#: flow over 16 flows of a 400-base template (0.004 × 401/19 = 0.084; 0.58 s a flow before).
 CASCADE_BASES = 18
 #: Per pixel-frame of the converter-as-built's expected moments by the sawtooth's series (the
 #: signal side's E_y[v] and the true-CDS covariance). Unit: s (pyro_1fmol with a 1-LSB
@@ -206,6 +210,12 @@ def _level(s: Scenario, stage: str, default: str, order: tuple[str, ...]) -> str
     return order[0] if level == "auto" else level
 
 
+#: The detection per site (window sums, the site's figures) and, in a pyrosequencing run, per
+#: site and flow (flow values, the base calls). Unit: s (warm, results.detect less the optics
+#: summary, median of 5: atp_dose_response 3.3 ms at 64 sites, 1.1 ms at 4; pyro_1fmol with a
+#: site on each of 128 pixels 0.116 s over 8 flows, 0.190 s over 25, 7.7 ms with 2 sites).
+DETECT_SITE_S: float = 4.0e-5
+DETECT_SITE_FLOW_S: float = 6.0e-5
 #: The dephase caller's cost per read and flow (chiptwin.detection.reads.call_dephased:
 #: phasing search, sweeps, hill climb, averaged posterior): pyro_long_read, 128 reads × 400
 #: flows, ≈ 0.1 s a read on one core of a 2-core machine. Unit: s.
@@ -234,10 +244,14 @@ def wall_estimate(s: Scenario, beside: bool = True) -> list[CostTerm]:
         base = replace(s, run=replace(s.run, fidelity=replace(
             s.run.fidelity, photons="expected", shot="poisson", dsp="")),
             chip=replace(s.chip, dsp=replace(s.chip.dsp, mode="float")))
-        two = 2 * sum(x.seconds for x in wall_estimate(base, beside=False))
-        if two <= PHYSICAL_LAW_MAX_S:  # pyro_paper_yield: 0.26-0.46 s of a 0.36-0.57 s run
+        physical = replace(base, optics=replace(base.optics, emitter="isotropic",
+                                                convention="lambertian_na2"))
+        own = [sum(x.seconds for x in wall_estimate(sc, beside=False)) for sc in (base, physical)]
+        two = sum(own)  # pyro_paper_yield at psf: 0.022 s and, its isotropic footprint, 0.117 s
+        if 2 * own[0] <= PHYSICAL_LAW_MAX_S:
             terms.append(CostTerm("the physical law beside the paper's convention: two runs at "
-                                  "the expected level", two, "run.beside_physical_law"))
+                                  "the expected level, the convention's and the isotropic "
+                                  "law's", two, "run.beside_physical_law"))
     return terms
 
 
@@ -293,6 +307,7 @@ def _own_terms(s: Scenario) -> list[CostTerm]:
                               "optics.layers, optics.thin_film_um, optics.band_fwhm_nm, "
                               "optics.top.medium"))
     terms += _footprint_terms(s)
+    terms.append(_detection_term(s))
     if s.assay.kind == "pyrosequencing" and s.assay.caller == "dephase":
         sites = n_sites(s)
         flows = s.assay.n_flows
@@ -308,6 +323,17 @@ def _own_terms(s: Scenario) -> list[CostTerm]:
                               fit + w * per,
                               "run.fidelity.kinetics, assay.n_flows"))
     return terms
+
+
+def _detection_term(s: Scenario) -> CostTerm:
+    """The detection of every site (:data:`DETECT_SITE_S`), and of its flows in a
+    pyrosequencing run (:data:`DETECT_SITE_FLOW_S`)."""
+    sites = n_sites(s)
+    flows = s.assay.n_flows if s.assay.kind == "pyrosequencing" else 0
+    what = f"the detection: {sites} sites × ({DETECT_SITE_S:g} s"
+    what += f" + {flows} flows × {DETECT_SITE_FLOW_S:g} s)" if flows else ")"
+    return CostTerm(what, sites * (DETECT_SITE_S + flows * DETECT_SITE_FLOW_S),
+                    "sites.at_pixels" + (", assay.n_flows" if flows else ""))
 
 
 def _footprint_terms(s: Scenario) -> list[CostTerm]:
