@@ -15,14 +15,18 @@ cost per unit (:func:`wall_estimate`, term by term):
 * **solver** (``cascade`` kinetics): the stiff ODE per flow or per assay window;
 * **the converter as built** (any ``[chip.adc]`` effect): its expected moments per pixel-frame,
   by the sawtooth's series, or by a quadrature over exact table sums where the series does not
-  apply (:mod:`chiptwin.pixel.expected_adc`), whose cost grows with the white noise's window.
+  apply (:mod:`chiptwin.pixel.expected_adc`), whose cost grows with the white noise's window;
+* **footprint profiles**: the light integrated over the sites' footprints, by the ``psf``
+  coupling through a stated stack and by the summary's with/without-top figures (``raytrace``
+  reads its traced matrix);
+* **detection**: per site, and per site and flow of a pyrosequencing run.
 
 A run estimated past ``[run] max_wall_s`` is refused (exit 2) naming the estimate, its largest
 term and the key that raises the limit; ``save_frames`` past the free disk of the output folder
 likewise (:func:`check_disk`). The estimate is a planning figure: ``tests/config/test_cost.py``
 holds it within :data:`ESTIMATE_FACTOR` of measured wall time on bundled scenes.
 
-Calibration: ``benchmarks/bench_estimate.py`` (``python benchmarks/bench_estimate.py``) runs the
+Calibration: ``benchmarks/bench_estimates.py`` (``python benchmarks/bench_estimates.py``) runs the
 scenes below and prints measured against estimated wall time; the constants were measured with it
 on the 2-core development machine (Linux, Python 3.11, numba cache warm; recalibrated on
 2026-11-25 after the sampler and steady-schedule speed-ups made the first constants 2–77× high),
