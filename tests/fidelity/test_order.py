@@ -16,7 +16,8 @@ from chiptwin.fidelity.ladder import reference_levels
 from chiptwin.twin.levels import _by_estimated_time
 from tests.conftest import SCENARIOS
 
-OPTICS_AUTO = ['run.fidelity.optics="auto"', "run.error_budget.snr_rel=0.01"]
+#: optics left to auto; 10 s of light, not 32, for a quicker calibration of psf
+OPTICS_AUTO = ['run.fidelity.optics="auto"', "run.error_budget.snr_rel=0.01", "run.duration_s=30.0"]
 
 
 @pytest.fixture(autouse=True)
