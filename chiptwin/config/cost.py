@@ -61,11 +61,11 @@ from chiptwin.config.schema import Scenario
 from chiptwin.constants import N_A, s_to_ticks
 
 #: Per run: scene preparation, coupling, outputs gathered (not the interpreter's start). Unit: s
-#: (warm, median of 5 alternating with other scenes, 2026-11-28: snr10_requirement whole at
-#: auto 0.005 s; what the other terms leave of atp_glow's 0.018 s 0.012 s, of
-#: atp_dose_response's 0.026 s 0.008 s. The 0.05–0.1 s once seen beyond the terms were the
+#: (warm, medians of 3–5, 2026-11-28: snr10_requirement whole at auto 0.005 s; what the other
+#: terms leave of atp_glow's 0.018 s 0.012 s, of atp_dose_response's 0.026 s 0.005 s. It was
+#: 0.01, twice snr10_requirement's whole run; the 0.05–0.1 s once seen beyond the terms were the
 #: optics summary's footprint profiles, now :data:`FOOTPRINT_PROFILE_S`).
-RUN_S: float = 0.01
+RUN_S: float = 0.005
 #: Per frame of a chip model run in SimPy (a DSP program, the RTL, a memory or DSP that does not
 #: keep up): the events (reset, integrate, convert, write, DSP job) and the trace. Unit: s
 #: (pyro_1fmol at the expected level with a kinetics program: 0.18 s over 1,520 frames).
