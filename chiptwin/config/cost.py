@@ -79,12 +79,15 @@ STEADY_FRAME_S: float = 1.5e-5
 #: over 7.97e8 on the shared 2-core machine; the expected level: at most pyro_paper_yield's
 #: whole 0.013–0.033 s over 1.56e6).
 PIXEL_SAMPLE_S: dict[str, float] = {"expected": 8.0e-9, "binned": 5.0e-8, "events": 5.0e-8}
-#: Per pixel-sample at each DSP level, beyond the float level's. Unit: s. ``fixed``: ccd_two_wells
-#: (0.85 s over 336 × 1,024 pixel-samples, its 7-stage program in SimPy) and crosstalk_microarray
-#: (0.24 s over 56 × 1,024). ``rtl``: NOT measured here (no simulator on the calibration path); a
-#: stated guess of 100× the fixed level's first calibration (2.2e-5 s), so that an RTL
-#: co-simulation of a long run is refused rather than let run.
-DSP_PIXEL_SAMPLE_S: dict[str, float] = {"float": 0.0, "fixed": 3.0e-6, "rtl": 2.2e-3}
+#: Per pixel-sample at each DSP level, beyond the float level's. Unit: s. ``fixed``, a program in
+#: SimPy and its figures in the summary (warm, 2026-11-28, the program's dsp, memory and
+#: detection stages): ccd_two_wells at auto 0.12 s over 336 × 1,024 pixel-samples (its
+#: 7-stage program; the whole run 0.21–0.49 s as the shared machine's load varied, estimated
+#: 1.27 s at 3e-6) and crosstalk_microarray 0.053 s over 56 × 1,024 (whole 0.065–0.40 s).
+#: ``rtl``: NOT measured here (no simulator on the calibration path); a stated guess of 100×
+#: the fixed level's first calibration (2.2e-5 s), so that an RTL co-simulation of a long run is
+#: refused rather than let run.
+DSP_PIXEL_SAMPLE_S: dict[str, float] = {"float": 0.0, "fixed": 1.0e-6, "rtl": 2.2e-3}
 #: The same for the default chain (cms, dark, background, average) at ``fixed``: its numba
 #: kernel, no program in SimPy. Unit: s (at most 0.047 s of atp_glow's whole reference run over
 #: 82,000 pixel-samples, and of pyro_1fmol's 2.6 s over 1.56e6; 3e-6 said 0.25 s and 4.7 s).
