@@ -252,10 +252,10 @@ def wall_estimate(s: Scenario, beside: bool = True) -> list[CostTerm]:
             s.run.fidelity, photons="expected", shot="poisson", dsp="")),
             chip=replace(s.chip, dsp=replace(s.chip.dsp, mode="float")))
         physical = replace(base, optics=replace(base.optics, emitter="isotropic",
-                                                convention="lambertian_na2"))
+                                                convention="lambertian_na2"))  # as beside() runs
         own = [sum(x.seconds for x in wall_estimate(sc, beside=False)) for sc in (base, physical)]
         two = sum(own)  # pyro_paper_yield at psf: 0.022 s and, its isotropic footprint, 0.117 s
-        if 2 * own[0] <= PHYSICAL_LAW_MAX_S:
+        if 2 * own[0] <= PHYSICAL_LAW_MAX_S:  # the limit on twice the convention's run, as before
             terms.append(CostTerm("the physical law beside the paper's convention: two runs at "
                                   "the expected level, the convention's and the isotropic "
                                   "law's", two, "run.beside_physical_law"))
