@@ -321,6 +321,8 @@ def test_a_run_with_auto_says_why_in_summary_and_report(tmp_path):
     assert main(args) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["fidelity"]["photons"] == "binned"
-    assert "not expected" in summary["fidelity_reason"]["photons"]
+    # the converter as built: its moments at every pixel at the expected level, at the site
+    # pixels where codes are drawn, so binned is tried first (warm: 0.68 s against 0.86 s)
+    assert "tried by estimated time: binned" in summary["fidelity_reason"]["photons"]
     assert summary["fidelity_error_estimate"]["snr_rel"] <= 0.01
     assert "`auto` fidelity" in (out / "report.md").read_text()

@@ -14,14 +14,18 @@ cost per unit (:func:`wall_estimate`, term by term):
 * **solver** (``cascade`` kinetics): the stiff ODE per flow or per assay window;
 * **the converter as built** (any ``[chip.adc]`` effect): its expected moments per pixel-frame,
   by the sawtooth's series, or by a quadrature over exact table sums where the series does not
-  apply (:mod:`chiptwin.pixel.expected_adc`), whose cost grows with the white noise's window.
+  apply (:mod:`chiptwin.pixel.expected_adc`), whose cost grows with the white noise's window;
+* **footprint profiles**: the light integrated over the sites' footprints, by the ``psf``
+  coupling through a stated stack and by the summary's with/without-top figures (``raytrace``
+  reads its traced matrix);
+* **detection**: per site, and per site and flow of a pyrosequencing run.
 
 A run estimated past ``[run] max_wall_s`` is refused (exit 2) naming the estimate, its largest
 term and the key that raises the limit; ``save_frames`` past the free disk of the output folder
 likewise (:func:`check_disk`). The estimate is a planning figure: ``tests/config/test_cost.py``
 holds it within :data:`ESTIMATE_FACTOR` of measured wall time on bundled scenes.
 
-Calibration: ``benchmarks/bench_estimate.py`` (``python benchmarks/bench_estimate.py``) runs the
+Calibration: ``benchmarks/bench_estimates.py`` (``python benchmarks/bench_estimates.py``) runs the
 scenes below and prints measured against estimated wall time; the constants were measured with it
 on the 2-core development machine (Linux, Python 3.11, numba cache warm; recalibrated on
 2026-11-25 after the sampler and steady-schedule speed-ups made the first constants 2–77× high),
@@ -56,9 +60,11 @@ from chiptwin.config.schema import Scenario
 from chiptwin.constants import N_A, s_to_ticks
 
 #: Per run: scene preparation, coupling, outputs gathered (not the interpreter's start). Unit: s
-#: (snr10_requirement whole, warm: 0.009 s; recalibrated 2026-11-28 with
-#: ``benchmarks/bench_estimates.py``).
-RUN_S: float = 0.01
+#: (warm, medians of 3–5, 2026-11-28: snr10_requirement whole at auto 0.005 s; what the other
+#: terms leave of atp_glow's 0.018 s 0.012 s, of atp_dose_response's 0.026 s 0.005 s. It was
+#: 0.01, twice snr10_requirement's whole run; the 0.05–0.1 s once seen beyond the terms were the
+#: optics summary's footprint profiles, now :data:`FOOTPRINT_PROFILE_S`).
+RUN_S: float = 0.005
 #: Per frame of a chip model run in SimPy (a DSP program, the RTL, a memory or DSP that does not
 #: keep up): the events (reset, integrate, convert, write, DSP job) and the trace. Unit: s
 #: (pyro_1fmol at the expected level with a kinetics program: 0.18 s over 1,520 frames).
@@ -72,12 +78,15 @@ STEADY_FRAME_S: float = 1.5e-5
 #: over 7.97e8 on the shared 2-core machine; the expected level: at most pyro_paper_yield's
 #: whole 0.013–0.033 s over 1.56e6).
 PIXEL_SAMPLE_S: dict[str, float] = {"expected": 8.0e-9, "binned": 5.0e-8, "events": 5.0e-8}
-#: Per pixel-sample at each DSP level, beyond the float level's. Unit: s. ``fixed``: ccd_two_wells
-#: (0.85 s over 336 × 1,024 pixel-samples, its 7-stage program in SimPy) and crosstalk_microarray
-#: (0.24 s over 56 × 1,024). ``rtl``: NOT measured here (no simulator on the calibration path); a
-#: stated guess of 100× the fixed level's first calibration (2.2e-5 s), so that an RTL
-#: co-simulation of a long run is refused rather than let run.
-DSP_PIXEL_SAMPLE_S: dict[str, float] = {"float": 0.0, "fixed": 3.0e-6, "rtl": 2.2e-3}
+#: Per pixel-sample at each DSP level, beyond the float level's. Unit: s. ``fixed``, a program in
+#: SimPy and its figures in the summary (warm, 2026-11-28, the program's dsp, memory and
+#: detection stages): ccd_two_wells at auto 0.12 s over 336 × 1,024 pixel-samples (its
+#: 7-stage program; the whole run 0.21–0.49 s as the shared machine's load varied, estimated
+#: 1.27 s at 3e-6) and crosstalk_microarray 0.053 s over 56 × 1,024 (whole 0.065–0.40 s).
+#: ``rtl``: NOT measured here (no simulator on the calibration path); a stated guess of 100×
+#: the fixed level's first calibration (2.2e-5 s), so that an RTL co-simulation of a long run is
+#: refused rather than let run.
+DSP_PIXEL_SAMPLE_S: dict[str, float] = {"float": 0.0, "fixed": 1.0e-6, "rtl": 2.2e-3}
 #: The same for the default chain (cms, dark, background, average) at ``fixed``: its numba
 #: kernel, no program in SimPy. Unit: s (at most 0.047 s of atp_glow's whole reference run over
 #: 82,000 pixel-samples, and of pyro_1fmol's 2.6 s over 1.56e6; 3e-6 said 0.25 s and 4.7 s).
@@ -93,13 +102,15 @@ EVENTS_WINDOW_S: float = 1.0e-5
 #: pixels' integrals did when every window was integrated: 0.12 ms against 0.5 ms).
 EVENTS_FILL_S: dict[str, float] = {"closed_form": 2.5e-4, "cascade": 1.0e-3}
 #: The cascade's yield fit, once a process (``twin.stages._fitted_yield``), and its stiff solver
-#: per assay window (a flow). Unit: s (pyro_1fmol, 8 flows: 0.67 s with the fit recomputed in a
-#: warm process, 1.1–1.4 s as a new process's first run).
-CASCADE_FIT_S: float = 0.8
-CASCADE_WINDOW_S: float = 0.03
+#: per assay window (a flow). Unit: s (warm, the fit's cache emptied, median of 5, 2026-11-28:
+#: the fit 0.148 s on pyro_1fmol, 0.042 s on ccd_100fmol; the solver 0.0036–0.0044 s a flow on
+#: both, 8 and 25 flows of 18 bases. They were 0.8 and 0.03: ccd_100fmol at auto estimated
+#: 1.60 s, measured 0.19 s. A new process's first run adds ≈ 1 s of loading).
+CASCADE_FIT_S: float = 0.15
+CASCADE_WINDOW_S: float = 0.004
 #: The template CASCADE_WINDOW_S was measured on (pyro_1fmol's 18 bases); the solver's state
-#: holds a strand share per template position, and a window costs in proportion: 0.58 s a flow
-#: for pyro_long_read's 400 bases (benchmarks/bench_long_reads.py; 0.03 × 401/19 = 0.63).
+#: holds a strand share per template position, and a window costs in proportion: 0.052 s a
+#: flow over 16 flows of a 400-base template (0.004 × 401/19 = 0.084; 0.58 s a flow before).
 CASCADE_BASES = 18
 #: Per pixel-frame of the converter-as-built's expected moments by the sawtooth's series (the
 #: signal side's E_y[v] and the true-CDS covariance). Unit: s (pyro_1fmol with a 1-LSB
@@ -139,11 +150,19 @@ FILM_PROFILES: int = 3
 #: summary's figures (``chiptwin.optics.top.Top.parts``).
 TOP_PARTS: dict[str, int] = {"solution": 0, "air": 1, "glass": 2}
 FILM_PROFILE_ANGLES: int = 36_864
-#: Per part of a top's returned light (``TOP_PARTS``) when the sites have a footprint: the
-#: returned light's profile integrated over the footprint and the diodes (split at the top's
-#: critical angle) for the coupling and the summary's with/without-top figures. Unit: s
-#: (pyro_1fmol reduced, 20 µm footprints, warm: +0.48 s under air, +0.65 s under a glass lid).
-TOP_FOOTPRINT_PART_S: float = 0.3
+#: Per profile of the light integrated over the sites' footprint and the diodes
+#: (``chiptwin.optics.coupling_stack`` with a footprint: the disc's profile, a part of a top's
+#: returned light split at the top's critical angle): one profile, and one per part of a top's
+#: returned light (``TOP_PARTS``). The ``psf`` level's coupling through a stated stack under a
+#: physical law makes 1 + parts of them; the summary's with/without-top figures 2 + parts at
+#: every level (``raytrace`` reads its traced matrix instead: ≈ 1 ms). Unit: s (warm, median of 3,
+#: the coupling and the top figures timed alone, per profile: luciferase_label's 10 µm
+#: footprints 0.038–0.050 s (no top, air, glass), pyro_1fmol's 20 µm 0.065–0.089 s,
+#: jssc2006_faceplate's and pyro_long_read's 0.053–0.078 s; luciferase_label whole at auto's
+#: other levels: 0.257 s at psf, 0.153 s at raytrace, 2026-11-28). Not counted: the sparse
+#: coupling's kernel (above :data:`chiptwin.limits.DENSE_COUPLING_ENTRIES`) grown to the array
+#: under a lid, pyro_array_256's 6.2 s at psf (0.33 s at raytrace).
+FOOTPRINT_PROFILE_S: float = 0.06
 #: The factor within which the estimate is held of measured wall time (tests/config/test_cost.py).
 ESTIMATE_FACTOR: float = 10.0
 #: Per worker of a study's process pool: spawn, import numpy/numba/chiptwin, load the kernels.
@@ -188,6 +207,12 @@ def _level(s: Scenario, stage: str, default: str, order: tuple[str, ...]) -> str
     return order[0] if level == "auto" else level
 
 
+#: The detection per site (window sums, the site's figures) and, in a pyrosequencing run, per
+#: site and flow (flow values, the base calls). Unit: s (warm, results.detect less the optics
+#: summary, median of 5: atp_dose_response 3.3 ms at 64 sites, 1.1 ms at 4; pyro_1fmol with a
+#: site on each of 128 pixels 0.116 s over 8 flows, 0.190 s over 25, 7.7 ms with 2 sites).
+DETECT_SITE_S: float = 4.0e-5
+DETECT_SITE_FLOW_S: float = 6.0e-5
 #: The dephase caller's cost per read and flow (chiptwin.detection.reads.call_dephased:
 #: phasing search, sweeps, hill climb, averaged posterior): pyro_long_read, 128 reads × 400
 #: flows, ≈ 0.1 s a read on one core of a 2-core machine. Unit: s.
@@ -216,10 +241,14 @@ def wall_estimate(s: Scenario, beside: bool = True) -> list[CostTerm]:
         base = replace(s, run=replace(s.run, fidelity=replace(
             s.run.fidelity, photons="expected", shot="poisson", dsp="")),
             chip=replace(s.chip, dsp=replace(s.chip.dsp, mode="float")))
-        two = 2 * sum(x.seconds for x in wall_estimate(base, beside=False))
-        if two <= PHYSICAL_LAW_MAX_S:  # pyro_paper_yield: 0.26-0.46 s of a 0.36-0.57 s run
+        physical = replace(base, optics=replace(base.optics, emitter="isotropic",
+                                                convention="lambertian_na2"))  # as beside() runs
+        own = [sum(x.seconds for x in wall_estimate(sc, beside=False)) for sc in (base, physical)]
+        two = sum(own)  # pyro_paper_yield at psf: 0.022 s and, its isotropic footprint, 0.117 s
+        if 2 * own[0] <= PHYSICAL_LAW_MAX_S:  # the limit on twice the convention's run, as before
             terms.append(CostTerm("the physical law beside the paper's convention: two runs at "
-                                  "the expected level", two, "run.beside_physical_law"))
+                                  "the expected level, the convention's and the isotropic "
+                                  "law's", two, "run.beside_physical_law"))
     return terms
 
 
@@ -274,12 +303,8 @@ def _own_terms(s: Scenario) -> list[CostTerm]:
                               f"{FILM_ELEMENT_S:g} s", elements * FILM_ELEMENT_S,
                               "optics.layers, optics.thin_film_um, optics.band_fwhm_nm, "
                               "optics.top.medium"))
-    parts = TOP_PARTS[s.optics.top.medium]
-    if parts and s.sites.footprint_radius_um > 0 and s.assay.kind != "flux":
-        terms.append(CostTerm(f"the top's returned light: {parts} part(s) over the sites' "
-                              f"footprints × {TOP_FOOTPRINT_PART_S:g} s",
-                              parts * TOP_FOOTPRINT_PART_S,
-                              "optics.top.medium, sites.footprint_radius_um"))
+    terms += _footprint_terms(s)
+    terms.append(_detection_term(s))
     if s.assay.kind == "pyrosequencing" and s.assay.caller == "dephase":
         sites = n_sites(s)
         flows = s.assay.n_flows
@@ -294,6 +319,38 @@ def _own_terms(s: Scenario) -> list[CostTerm]:
                               f"its stiff solver × {per:.3g} s",
                               fit + w * per,
                               "run.fidelity.kinetics, assay.n_flows"))
+    return terms
+
+
+def _detection_term(s: Scenario) -> CostTerm:
+    """The detection of every site (:data:`DETECT_SITE_S`), and of its flows in a
+    pyrosequencing run (:data:`DETECT_SITE_FLOW_S`)."""
+    sites = n_sites(s)
+    flows = s.assay.n_flows if s.assay.kind == "pyrosequencing" else 0
+    what = f"the detection: {sites} sites × ({DETECT_SITE_S:g} s"
+    what += f" + {flows} flows × {DETECT_SITE_FLOW_S:g} s)" if flows else ")"
+    return CostTerm(what, sites * (DETECT_SITE_S + flows * DETECT_SITE_FLOW_S),
+                    "sites.at_pixels" + (", assay.n_flows" if flows else ""))
+
+
+def _footprint_terms(s: Scenario) -> list[CostTerm]:
+    """The light's profiles integrated over the sites' footprints (:data:`FOOTPRINT_PROFILE_S`):
+    the ``psf`` coupling's through a stated stack under a physical law, and the summary's
+    with/without-top figures."""
+    parts = TOP_PARTS[s.optics.top.medium]
+    if s.sites.footprint_radius_um <= 0 or s.optics.coupling != "contact" or s.assay.kind == "flux":
+        return []
+    keys = "optics.top.medium, sites.footprint_radius_um"
+    terms = []
+    optics = _level(s, "optics", "psf", ("na2", "psf", "raytrace"))
+    if optics == "psf" and s.optics.stated_stack and s.optics.law != "lambertian_na2":
+        terms.append(CostTerm(f"the psf coupling through the stack: {1 + parts} profile(s) over "
+                              f"the sites' footprints × {FOOTPRINT_PROFILE_S:g} s",
+                              (1 + parts) * FOOTPRINT_PROFILE_S, "run.fidelity.optics, " + keys))
+    if parts:
+        terms.append(CostTerm(f"the summary's top figures: {2 + parts} profiles over a site's "
+                              f"footprint × {FOOTPRINT_PROFILE_S:g} s",
+                              (2 + parts) * FOOTPRINT_PROFILE_S, keys))
     return terms
 
 

@@ -47,14 +47,14 @@ def test_the_terms_count_what_the_run_does():
     assert any("frames of chip events in SimPy" in t.what for t in program)
     # twice the frames, about twice the time
     longer = scene("pyro_1fmol", "run.duration_s=1000.0")
-    fixed_part = cost.RUN_S + sum(t.seconds for t in cost.wall_estimate(s)
-                                  if "top's returned light" in t.what)  # per run, not frame
+    fixed_part = cost.RUN_S + sum(t.seconds for t in cost.wall_estimate(s)  # per run, not frame
+                                  if "footprint" in t.what or "detection" in t.what)
     assert cost.wall_seconds(longer) - fixed_part == pytest.approx(
         2 * (cost.wall_seconds(s) - fixed_part))
 
 
 def test_a_run_past_max_wall_s_is_refused_naming_the_key(capsys):
-    # pyro_array_256 as bundled: ≈ 28 s estimated
+    # pyro_array_256 as bundled: ≈ 61 s estimated
     with pytest.raises(ScenarioError, match=r"run.max_wall_s = 1.0.*estimated at.*raise "
                                             r"run.max_wall_s"):
         load_scenario(resolve_scenario("pyro_array_256"), ["run.max_wall_s=1.0"])
@@ -179,13 +179,56 @@ def test_the_estimate_is_within_its_factor_of_measured_wall_time(name):
 
 def test_the_physical_law_beside_the_convention_is_charged_its_two_runs():
     """A paper-convention scene's run adds two expected-level runs (``summary['physical_law']``):
-    charged as twice that scene's own estimate at those levels, and not when it is turned off."""
-    s = load_scenario(resolve_scenario("pyro_paper_yield"))
-    beside = [t for t in cost.wall_estimate(s) if "physical law" in t.what]
-    base = load_scenario(resolve_scenario("pyro_paper_yield"),
-                         ['run.fidelity.photons="expected"', 'chip.dsp.mode="float"'])
-    assert len(beside) == 1
-    own = sum(t.seconds for t in cost.wall_estimate(base, beside=False))
-    assert beside[0].seconds == pytest.approx(2 * own)
-    off = load_scenario(resolve_scenario("pyro_paper_yield"), ["run.beside_physical_law=false"])
-    assert not [t for t in cost.wall_estimate(off) if "physical law" in t.what]
+    the scene's own estimate at those levels and the same under the isotropic law, which at the
+    psf level integrates the light over the 20 µm footprints (the convention does not: one
+    medium, a closed form), and nothing when it is turned off."""
+    def beside(*sets):
+        s = load_scenario(resolve_scenario("pyro_paper_yield"), list(sets))
+        return [t.seconds for t in cost.wall_estimate(s) if "physical law" in t.what]
+
+    def own(*sets):
+        s = load_scenario(resolve_scenario("pyro_paper_yield"),
+                          ['run.fidelity.photons="expected"', 'chip.dsp.mode="float"', *sets])
+        return sum(t.seconds for t in cost.wall_estimate(s, beside=False))
+
+    psf, na2 = 'run.fidelity.optics="psf"', 'run.fidelity.optics="na2"'
+    assert beside(na2) == [pytest.approx(2 * own(na2))]
+    physical = own(psf, 'optics.emitter="isotropic"')
+    assert physical == pytest.approx(own(psf) + cost.FOOTPRINT_PROFILE_S)
+    assert beside(psf) == [pytest.approx(own(psf) + physical)]
+    assert not beside("run.beside_physical_law=false")
+
+
+def test_the_footprint_profiles_are_charged_where_the_run_makes_them():
+    """luciferase_label's sites have 10 µm footprints under an open drop (air: one part of
+    returned light): the psf coupling through its stack makes 2 profiles over them, the summary's
+    with/without-top figures 3 at every level; a glass lid returns two parts; point sites and
+    the paper's one-medium convention make none at psf."""
+    def profiles(*sets):
+        s = load_scenario(resolve_scenario("luciferase_label"), list(sets))
+        terms = [t for t in cost.wall_estimate(s) if "footprint" in t.what]
+        return {t.what.split(":")[0]: round(t.seconds / cost.FOOTPRINT_PROFILE_S) for t in terms}
+
+    psf, raytrace = 'run.fidelity.optics="psf"', 'run.fidelity.optics="raytrace"'
+    coupling, summary = "the psf coupling through the stack", "the summary's top figures"
+    assert profiles(psf) == {coupling: 2, summary: 3}
+    assert profiles(raytrace) == {summary: 3}
+    glass = ['optics.top.medium="glass"', "optics.top.solution_depth_um=100",
+             "optics.top.lid_thickness_um=1000", "optics.top.lid_n=1.5"]
+    assert profiles(psf, *glass) == {coupling: 3, summary: 4}
+    assert profiles(psf, "sites.footprint_radius_um=0") == {}
+    assert profiles(psf, *NO_TOP) == {coupling: 1}
+    assert profiles(psf, *PAPER_CHIP) == {}
+
+
+def test_the_detection_is_charged_per_site_and_per_site_and_flow():
+    def detection(name, *sets):
+        s = load_scenario(resolve_scenario(name), list(sets))
+        return next(t for t in cost.wall_estimate(s) if t.what.startswith("the detection"))
+
+    atp = detection("atp_dose_response")
+    assert atp.seconds == pytest.approx(64 * cost.DETECT_SITE_S) and "flows" not in atp.what
+    pyro = [detection("pyro_1fmol", *REDUCED["pyro_1fmol"], f"sites.at_pixels={at}").seconds
+            for at in ("[[4, 8], [2, 3]]", '"all"')]
+    per_site = cost.DETECT_SITE_S + 8 * cost.DETECT_SITE_FLOW_S
+    assert pyro == [pytest.approx(2 * per_site), pytest.approx(128 * per_site)]
