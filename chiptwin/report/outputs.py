@@ -321,8 +321,11 @@ def _physical_law_rows(p: dict[str, Any] | None) -> list[tuple[str, str]]:
     if not p["computed"]:
         return [("paper convention (NA²)", f"the {p['emitter']} law's figures not computed: "
                  f"{p['why_not']}")]
+    def ratio(x: float | None) -> str:  # None: the convention's site 0 reads no signal
+        return "undefined (no signal under the convention)" if x is None else f"{x:.3g}"
+
     return [("paper convention (NA²)", f"with {p['emitter']} emitters instead: signal × "
-             f"{p['signal_ratio']:.3g}, power SNR × {p['snr_power_ratio']:.3g} (site 0, "
+             f"{ratio(p['signal_ratio'])}, power SNR × {ratio(p['snr_power_ratio'])} (site 0, "
              f"{p['level']} level)")]
 
 
