@@ -46,6 +46,19 @@ from chiptwin.pixel.frames import code_dtype
 #: 35 MiB (tracemalloc) for pyro_1fmol's two-layer stack with its 20 µm disc, 18 MiB for
 #: crosstalk_microarray and jssc2006_faceplate; one run makes them one after the other. Unit: B.
 STACK_PSF_BYTES: int = 48 << 20
+#: Bytes of per-frame pixel moments a scene keeps for its replicates: below this the expected charge
+#: and CMS moments of every pixel in every frame (3 float64 arrays, n_frames × n_pixels) are
+#: computed once and shared; above it (a large array, a long run) they are computed a block of
+#: frames at a time as the chip model reaches them and then dropped, so memory stays flat in frames
+#: (``chiptwin.twin.scene``; the wall-time estimate charges the kept ones to the scene).
+MOMENTS_KEPT_BYTES: int = 48 << 20
+
+
+def moments_kept(n_pixels: int, n_frames: int) -> bool:
+    """Whether a scene keeps every frame's pixel moments for its replicates."""
+    return 3 * 8 * n_pixels * n_frames <= MOMENTS_KEPT_BYTES
+
+
 #: The converter-as-built's quadrature (a transition table, the range's ends, white
 #: noise below the series' floor): its slices of ``QUAD_SLICE_VALUES`` node values
 #: (chiptwin.pixel.expected_adc), float64, this many arrays at once: measured 83 MiB

@@ -53,6 +53,7 @@ from chiptwin.config.budget import (
     max_coupling,
     max_dark_e,
     max_site_photons,
+    moments_kept,
     n_sites,
 )
 from chiptwin.config.fields import ScenarioError
@@ -194,11 +195,14 @@ DISK_MARGIN_BYTES: int = 64 << 20
 
 @dataclass(frozen=True)
 class CostTerm:
-    """One term of the estimate: what it counts, its seconds, and the keys that set its size."""
+    """One term of the estimate: what it counts, its seconds, and the keys that set its size.
+    ``per_scene``: paid when the scene is prepared (kinetics, optics, the summary's optical
+    figures), which a study's replicates of one point share (:func:`row_seconds`)."""
 
     what: str
     seconds: float
     keys: str
+    per_scene: bool = False
 
 
 def _level(s: Scenario, stage: str, default: str, order: tuple[str, ...]) -> str:
@@ -284,15 +288,17 @@ def _own_terms(s: Scenario) -> list[CostTerm]:
                               ps * dsp_s, "run.fidelity.dsp (or chip.dsp.mode), " + length))
     if photons == "events":
         terms.append(_events_term(s, kinetics, frames, length))
-    if c.adc.as_built_keys:
-        terms.append(_as_built_term(s, frames * _moment_pixels(s, photons, dsp)))
+    if c.adc.as_built_keys:  # moments a scene keeps are made once for its replicates
+        term = _as_built_term(s, frames * _moment_pixels(s, photons, dsp))
+        terms.append(replace(term, per_scene=moments_kept(c.n_pixels, frames)))
     if s.run.fidelity.auto_stages():  # calibrations not yet cached: the scene at the expected
         expected = ps * PIXEL_SAMPLE_S["expected"]  # level once, its converter as built too
         as_built = _as_built_term(s, frames * c.n_pixels).seconds if c.adc.as_built_keys else 0
         terms.append(CostTerm("fidelity auto's calibration, uncached: the scene at the expected "
                               "level (its pixel-samples and converter as built)",
                               expected + as_built,
-                              "run.fidelity (auto), " + length + ", chip.rows × chip.cols"))
+                              "run.fidelity (auto), " + length + ", chip.rows × chip.cols",
+                              per_scene=True))
     groups, nodes = film_bound(s)
     if groups and s.optics.coupling == "contact" and s.assay.kind != "flux":
         profiles = FILM_PROFILES if s.optics.law != "lambertian_na2" else FILM_PROFILES - 1
@@ -302,7 +308,7 @@ def _own_terms(s: Scenario) -> list[CostTerm]:
                               f"{FILM_PROFILE_ANGLES} angles × {nodes} wavelengths × 2 × "
                               f"{FILM_ELEMENT_S:g} s", elements * FILM_ELEMENT_S,
                               "optics.layers, optics.thin_film_um, optics.band_fwhm_nm, "
-                              "optics.top.medium"))
+                              "optics.top.medium", per_scene=True))
     terms += _footprint_terms(s)
     terms.append(_detection_term(s))
     if s.assay.kind == "pyrosequencing" and s.assay.caller == "dephase":
@@ -318,7 +324,7 @@ def _own_terms(s: Scenario) -> list[CostTerm]:
         terms.append(CostTerm(f"the cascade's yield fit, {fit:g} s, and {w} windows of "
                               f"its stiff solver × {per:.3g} s",
                               fit + w * per,
-                              "run.fidelity.kinetics, assay.n_flows"))
+                              "run.fidelity.kinetics, assay.n_flows", per_scene=True))
     return terms
 
 
@@ -346,11 +352,12 @@ def _footprint_terms(s: Scenario) -> list[CostTerm]:
     if optics == "psf" and s.optics.stated_stack and s.optics.law != "lambertian_na2":
         terms.append(CostTerm(f"the psf coupling through the stack: {1 + parts} profile(s) over "
                               f"the sites' footprints × {FOOTPRINT_PROFILE_S:g} s",
-                              (1 + parts) * FOOTPRINT_PROFILE_S, "run.fidelity.optics, " + keys))
+                              (1 + parts) * FOOTPRINT_PROFILE_S, "run.fidelity.optics, " + keys,
+                              per_scene=True))
     if parts:
         terms.append(CostTerm(f"the summary's top figures: {2 + parts} profiles over a site's "
                               f"footprint × {FOOTPRINT_PROFILE_S:g} s",
-                              (2 + parts) * FOOTPRINT_PROFILE_S, keys))
+                              (2 + parts) * FOOTPRINT_PROFILE_S, keys, per_scene=True))
     return terms
 
 
@@ -469,6 +476,17 @@ def _steady(s: Scenario) -> bool:
     if not is_default(s.chip.dsp.program) or s.dsp_level == "rtl":
         return False
     return steady_run(Schedule.from_chip(s.chip, s.run.duration_s), frame_steps=True) is not None
+
+
+def row_seconds(s: Scenario, rows_per_scene: int) -> float:
+    """A study row's seconds: the run's own terms, and the scene's preparation shared by
+    ``rows_per_scene`` rows (a point's replicates, which each process keeps prepared:
+    ``chiptwin.study.rows``). Unit: s (adc_bits_pyro as built, 14 bits, 0.5 LSB₁₃ comparator:
+    0.53 s a run, 0.42 s of it the scene's footprint profiles; its rows measured 0.081 s each,
+    3,310 in 266.6 s)."""
+    terms = wall_estimate(s)
+    share = 1.0 / max(1, int(rows_per_scene))
+    return sum(t.seconds * (share if t.per_scene else 1.0) for t in terms)
 
 
 def wall_seconds(s: Scenario) -> float:

@@ -119,13 +119,23 @@ def run_study(study: Study | str | Path, workers: int | None = None,
 
 def estimate_s(plan: Plan) -> tuple[float, int]:
     """The mean estimated seconds of one row and the rows the study may run (a bisect's cap),
-    from each valid point's :func:`chiptwin.config.cost.wall_seconds`."""
-    from chiptwin.config.cost import wall_seconds
+    from each valid point's :func:`chiptwin.config.cost.row_seconds`: the scene's preparation
+    shared by the point's replicates (each a scene of its own where chips vary and the sites'
+    DNA with them)."""
+    from chiptwin.config.cost import row_seconds
 
     study = plan.study
-    seconds = [wall_seconds(sc) for sc in plan.scenarios.values()]
+    seconds = [row_seconds(sc, 1 if _scene_per_row(sc) else study.replicates)
+               for sc in plan.scenarios.values()]
     per_row = sum(seconds) / len(seconds) if seconds else 0.0
     return per_row, (len(plan.points) + len(plan.references)) * study.replicates
+
+
+def _scene_per_row(s) -> bool:
+    """Every replicate prepares its scene again: another chip and, with it, the sites' DNA
+    (as ``chiptwin.study.rows`` does)."""
+    return (s.chip.fixed_pattern_seed < 0 and s.assay.kind == "pyrosequencing"
+            and bool(s.assay.dna_cv))
 
 
 class Plan:

@@ -20,6 +20,7 @@ from scipy import sparse
 
 from chiptwin import pixel
 from chiptwin.chip import ChipRun, Schedule
+from chiptwin.config.budget import moments_kept
 from chiptwin.dsp.pipeline import Pipeline
 from chiptwin.limits import frames_per_block
 from chiptwin.twin import stages
@@ -66,12 +67,6 @@ class PixelFrames:
     cds_var_lsb2: np.ndarray
     full_well_pixel_frames: int
 
-
-#: Bytes of per-frame pixel moments a scene keeps for its replicates: below this the expected charge
-#: and CMS moments of every pixel in every frame (3 float64 arrays, n_frames × n_pixels) are
-#: computed once and shared; above it (a large array, a long run) they are computed a block of
-#: frames at a time as the chip model reaches them and then dropped, so memory stays flat in frames.
-MOMENTS_KEPT_BYTES: int = 48 << 20
 
 #: Bytes of light per pixel made in one product with the coupling (a large scene's frames in
 #: chunks of whole blocks, kept until the chip model reads past them). A sparse coupling is read
@@ -151,7 +146,7 @@ class Scene:
         if start % self.block_frames or stop - start > self.block_frames:
             raise ValueError(f"frames {start}…{stop}: not within one block of {self.block_frames}")
         n_frames = self.site_photons.shape[1]
-        if 3 * 8 * self.n_pixels * n_frames > MOMENTS_KEPT_BYTES:
+        if not moments_kept(self.n_pixels, n_frames):
             return pixel_frames(self, t_int_s, gain_error, start, stop, moments_at)
         whole = self.pixel_frames(t_int_s, gain_error, moments_at)
         return PixelFrames(whole.mean_e[start:stop], whole.cds_mean_lsb[start:stop],
@@ -173,7 +168,7 @@ class Scene:
         if key in self._memo:
             return self._memo[key]
         whole = _all_blocks(self, t_int_s, gain_error, moments_at)
-        if 3 * 8 * self.n_pixels * self.site_photons.shape[1] <= MOMENTS_KEPT_BYTES:
+        if moments_kept(self.n_pixels, self.site_photons.shape[1]):
             self._memo[key] = whole
         return whole
 

@@ -11,12 +11,11 @@ import numpy as np
 import pytest
 
 from chiptwin import limits
-from chiptwin.config import load_scenario
+from chiptwin.config import budget, load_scenario
 from chiptwin.fidelity import run
 from chiptwin.pixel import CHUNK_PIXELS
 from chiptwin.pixel import frames as frames_module
 from chiptwin.report.outputs import write_outputs
-from chiptwin.twin import scene as scene_module
 from chiptwin.twin import stages
 from chiptwin.twin.runner import Recorder, prepare, run_prepared, simulate, stage_rng
 
@@ -54,7 +53,7 @@ def test_blocks_kept_or_made_give_the_same_run(small_toml, monkeypatch):
     scene = prepare(s)
     assert run_prepared(s, scene).arrays["site_signal_e"].tobytes() == \
         kept.arrays["site_signal_e"].tobytes()
-    monkeypatch.setattr(scene_module, "MOMENTS_KEPT_BYTES", 0)
+    monkeypatch.setattr(budget, "MOMENTS_KEPT_BYTES", 0)
     made = run(s)
     for key in kept.arrays:
         assert np.array_equal(kept.arrays[key], made.arrays[key]), key
@@ -82,7 +81,7 @@ def test_peak_memory_does_not_grow_with_frames_beyond_the_trace(wide, monkeypatc
     made on demand (the scene-kept moments are bounded by MOMENTS_KEPT_BYTES, not by frames):
     the 600 extra frames cost at most PER_FRAME_BOUND_B each (measured: ≈ 0.9 kB each; peak
     ≈ 32 MB either way)."""
-    monkeypatch.setattr(scene_module, "MOMENTS_KEPT_BYTES", 0)
+    monkeypatch.setattr(budget, "MOMENTS_KEPT_BYTES", 0)
     run(wide)  # one-time allocations (kernels loaded, caches filled) outside the measurement
     short = _peak_bytes(replace(wide, run=replace(wide.run, duration_s=300.0)))
     long = _peak_bytes(replace(wide, run=replace(wide.run, duration_s=900.0)))

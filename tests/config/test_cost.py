@@ -232,3 +232,21 @@ def test_the_detection_is_charged_per_site_and_per_site_and_flow():
             for at in ("[[4, 8], [2, 3]]", '"all"')]
     per_site = cost.DETECT_SITE_S + 8 * cost.DETECT_SITE_FLOW_S
     assert pyro == [pytest.approx(2 * per_site), pytest.approx(128 * per_site)]
+
+
+def test_a_study_row_shares_the_scene_preparation_with_its_replicates():
+    """A study point's replicates share its prepared scene (kinetics, optics, the summary's
+    optical figures, the moments a small scene keeps): a row pays 1/replicates of those terms.
+    adc_bits_pyro's 14-bit point as built: the run estimated ≈ 0.5 s, of which the footprint
+    profiles ≈ 0.4 s; its rows measured 0.064-0.08 s each (3,310 rows in 266.6 s)."""
+    s = load_scenario(resolve_scenario("pyro_1fmol"), ["chip.adc.clock_hz=160e6",
+                                                          "chip.adc.bits=14",
+                                                          "chip.adc.comparator_noise_uV=61.04"])
+    terms = cost.wall_estimate(s)
+    shared = sum(t.seconds for t in terms if t.per_scene)
+    assert any("footprint" in t.what and t.per_scene for t in terms)
+    assert any("converter as built" in t.what and t.per_scene for t in terms)  # kept moments
+    assert not any("pixel-samples" in t.what and t.per_scene for t in terms)  # the draws
+    assert cost.row_seconds(s, 1) == pytest.approx(cost.wall_seconds(s))
+    assert cost.row_seconds(s, 90) == pytest.approx(cost.wall_seconds(s) - shared * 89 / 90)
+    assert 0.04 < cost.row_seconds(s, 90) < 0.25
