@@ -289,7 +289,7 @@ def _own_terms(s: Scenario) -> list[CostTerm]:
     if photons == "events":
         terms.append(_events_term(s, kinetics, frames, length))
     if c.adc.as_built_keys:  # moments a scene keeps are made once for its replicates
-        term = _as_built_term(s, frames * _moment_pixels(s, photons, dsp))
+        term = _as_built_term(s, frames * _moment_pixels(s, photons))
         terms.append(replace(term, per_scene=moments_kept(c.n_pixels, frames)))
     if s.run.fidelity.auto_stages():  # calibrations not yet cached: the scene at the expected
         expected = ps * PIXEL_SAMPLE_S["expected"]  # level once, its converter as built too
@@ -448,13 +448,23 @@ def _as_built_term(s: Scenario, pixel_frames: int) -> CostTerm:
                     pixel_frames * each, keys)
 
 
-def _moment_pixels(s: Scenario, photons: str, dsp: str) -> int:
-    """Pixels whose converter-as-built moments a run computes: where codes are drawn and today's
-    chain runs without ``report_error``, the sites' pixels only (the outputs kept;
-    :func:`chiptwin.twin.runner.moments_read_at`), else every pixel."""
+def moments_at_kept_pixels(s: Scenario, photons: str) -> bool:
+    """Whether a run that keeps its outputs at some pixels (a study's sites) computes the CMS
+    moments there only: codes are drawn (``binned``, ``events``) and today's chain runs without
+    ``report_error``. Elsewhere the moments are read at every pixel: they are the values at the
+    ``expected`` level, a DSP program mixes pixels, the fixed-vs-float error statistics span
+    every pixel. The one rule of :func:`chiptwin.twin.runner.moments_read_at` (which also reads
+    every pixel's where the codes are kept for a co-simulation) and of this estimate's converter
+    term; the DSP's level does not enter (float, fixed and the RTL read the same codes)."""
+    return (photons in ("binned", "events") and _default_chain(s)
+            and not s.chip.dsp.report_error)
+
+
+def _moment_pixels(s: Scenario, photons: str) -> int:
+    """Pixels whose converter-as-built moments a run computes: the sites' pixels where
+    :func:`moments_at_kept_pixels`, else every pixel."""
     at = s.sites.at_pixels
-    if (photons == "expected" or dsp == "rtl" or not _default_chain(s)
-            or s.chip.dsp.report_error or at == "all"):
+    if not moments_at_kept_pixels(s, photons) or at == "all":
         return s.chip.n_pixels
     return 1 if at == "centre" else len({tuple(rc) for rc in at})
 

@@ -22,6 +22,7 @@ from chiptwin import __version__, pixel
 from chiptwin.chip import ChipRun, Recorder, Schedule, SteadyRun, simulate_chip, steady_run
 from chiptwin.config import Scenario, load_scenario, reference_chip
 from chiptwin.config.consistency import check_consistency, scenario_warnings
+from chiptwin.config.cost import moments_at_kept_pixels
 from chiptwin.constants import TICKS_PER_S
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
 from chiptwin.dsp._kernels import count_ends_kernel
@@ -264,18 +265,11 @@ def simulate(s: Scenario, scene: Scene, photons_level: str, rng: np.random.Gener
 def moments_read_at(s: Scenario, photons_level: str, keep: np.ndarray | None,
                     keep_codes: bool) -> np.ndarray | None:
     """The pixels whose CMS moments a run reads (:func:`~chiptwin.twin.scene.pixel_frames`'s
-    ``moments_at``), or None for every pixel.
-
-    The DSP carries each pixel's moments beside its codes; a run that keeps outputs at ``keep``
-    drops the others as they leave the DSP. The moments elsewhere are read only where codes are
-    not drawn (the ``expected`` level, whose values are the moments), where the DSP mixes pixels
-    (a program beyond today's chain: ``bin_rows``, ``fir8``, ``wiener``), or by the
-    fixed-vs-float error statistics (``report_error``, over every pixel) and the codes kept for
-    the RTL (``keep_codes``): those keep every pixel's.
-    """
-    d = s.chip.dsp
-    if (keep is None or photons_level not in ("binned", "events") or keep_codes
-            or not is_default(d.program) or d.report_error):
+    ``moments_at``), or None for every pixel: the kept outputs' pixels where
+    :func:`chiptwin.config.cost.moments_at_kept_pixels` says (the DSP carries each pixel's
+    moments beside its codes, and a run that keeps outputs at ``keep`` drops the others as they
+    leave it), and every pixel when codes are kept for the RTL (``keep_codes``)."""
+    if keep is None or keep_codes or not moments_at_kept_pixels(s, photons_level):
         return None
     return keep
 
