@@ -12,6 +12,7 @@ Both paths run here on one prepared scene's site pixels and windows, alternating
 window, their ratio, and both paths' mean count a window against the light's integral.
 
     python benchmarks/bench_events.py [SCENARIO] [--windows 40] [--rounds 2] [--set KEY=VALUE]
+    python benchmarks/bench_events.py --quick   # 5 windows, 1 round: both paths run and agree
 
 Default: ``ccd_two_wells`` at its reference kinetics (the cascade), whose run at the events
 level once did not finish in 6 minutes.
@@ -60,7 +61,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--windows", type=int, default=40, help="windows timed per round")
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--set", action="append", default=[], dest="sets")
+    ap.add_argument("--quick", action="store_true", help="5 windows, 1 round (a check, not a "
+                    "measure)")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.windows, args.rounds = 5, 1
     s = load_scenario(SCENARIOS / f"{args.scenario}.toml", args.sets)
     s = with_levels(s, {**reference_levels(s), "photons": "events", "dsp": "fixed"})
     scene = prepare(s)
