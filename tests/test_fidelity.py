@@ -139,8 +139,7 @@ def test_auto_is_cheaper_than_the_reference_and_within_its_budget(name):
     s = load_scenario(SCENARIOS / f"{name}.toml",
                       sets + SMALLER.get(name, []) + ["chip.fixed_pattern_seed=7"])
     resolved, choice = resolve(s)
-    # rtl is fixed bit for bit (tests/rtl); events gives binned's law (test below) at a cost
-    # that grows with the photons (ccd_two_wells: minutes)
+    # rtl is fixed bit for bit (tests/rtl); events reads binned's counts (test below)
     ref = {**reference_levels(s), "dsp": "fixed", "photons": "binned"}
     order = {st: LEVELS[st].index for st in LEVELS}
     most = reference_levels(s)

@@ -23,7 +23,7 @@ from tests.conftest import SCENARIOS
 CHEAP_REFERENCE = {"kinetics": "closed_form", "photons": "expected", "optics": "psf",
                    "dsp": "float"}
 #: The small scenario's 8 key flows of 4 s (36 frames, not 284): a ladder runs every rung three
-#: times (warm-up and two replicates), the events and cascade rungs at ~10 ms a frame; what these
+#: times (warm-up and two replicates), the cascade rungs at ~10 ms a frame; what these
 #: tests check is per frame (errors, common random numbers) or of the optics alone.
 SHORT_FLOWS = ["assay.n_flows=8", "assay.flow_period_s=4.0", "run.duration_s=36.0"]
 

@@ -158,7 +158,7 @@ def _same_result(a, b) -> None:
 
 
 #: The small scenario's 8 key flows of 4 s (36 frames instead of 284): the same path per frame,
-#: 16 runs per case; at the events level a frame costs ~10 ms (each pixel's arrival times).
+#: 16 runs per case.
 SHORT_FLOWS = ["assay.n_flows=8", "assay.flow_period_s=4.0", "run.duration_s=36.0"]
 
 
