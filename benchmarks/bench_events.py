@@ -71,10 +71,9 @@ def main(argv: list[str] | None = None) -> int:
     scene = prepare(s)
     ev = stages.EventPixels(scene.source, scene.coupling, stages.site_pixel_indices(s),
                             scene.sensor, np.random.default_rng(0))
-    lit = [k for k in range(scene.sch.n_frames)
-           if ev.electrons_until(*scene.sch.window_s(k)[:1], np.full(
-               len(ev.pixels), scene.sch.window_s(k)[1])).sum() > 0]
-    windows = [scene.sch.window_s(k) for k in lit[: args.windows]]
+    every = [scene.sch.window_s(k) for k in range(scene.sch.n_frames)]
+    windows = [(a, b) for a, b in every
+               if ev.electrons_until(a, np.full(len(ev.pixels), b)).sum() > 0][: args.windows]
     paths = {"every arrival": arrivals, "order statistic": order_statistic}
     took = {name: [] for name in paths}
     counts = {name: [] for name in paths}

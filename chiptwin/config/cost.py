@@ -233,33 +233,48 @@ def _windows(s: Scenario) -> int:
 
 
 #: The physical law's comparison beside a paper-convention scene (``chiptwin.twin.physical_law``)
-#: is left out above this many seconds for its two runs (its ``MAX_SECONDS``). Unit: s.
+#: is left out above this many seconds for its two runs. Unit: s.
 PHYSICAL_LAW_MAX_S: float = 5.0
+#: The emitter law of molecules in solution that the comparison puts in place of the paper's NA²
+#: convention (the dipole pattern's orientation average).
+PHYSICAL_LAW: str = "isotropic"
+
+
+def physical_law_applies(s: Scenario) -> bool:
+    """A contact scene with light from sites under the paper's NA² convention: its run reports
+    beside it what the physical law would read (``summary['physical_law']``)."""
+    return (s.optics.law == "lambertian_na2" and s.optics.coupling == "contact"
+            and s.assay.kind != "flux")
+
+
+def law_comparison(s: Scenario) -> tuple[Scenario, Scenario]:
+    """The comparison's two runs: the scene at the ``expected`` photon level with the float DSP
+    (means and variances, no draws), under the convention and under :data:`PHYSICAL_LAW`."""
+    at = replace(s.run.fidelity, photons="expected", shot="poisson", dsp="")
+    base = replace(s, run=replace(s.run, fidelity=at),
+                   chip=replace(s.chip, dsp=replace(s.chip.dsp, mode="float")))
+    physical = replace(base, optics=replace(base.optics, emitter=PHYSICAL_LAW,
+                                            convention="lambertian_na2"))
+    return base, physical
+
+
+def law_comparison_seconds(pair: tuple[Scenario, Scenario]) -> float:
+    """The estimated seconds of :func:`law_comparison`'s two runs (pyro_paper_yield at psf:
+    0.022 s and, its isotropic footprint profile, 0.117 s)."""
+    return sum(t.seconds for sc in pair for t in wall_estimate(sc, beside=False))
 
 
 def wall_estimate(s: Scenario, beside: bool = True) -> list[CostTerm]:
     """The run's wall time, term by term. Unit: s. ``beside``: with the physical law's two
     expected-level runs a paper-convention scene adds (``summary['physical_law']``)."""
     terms = _own_terms(s)
-    if beside and _physical_law_applies(s):
-        base = replace(s, run=replace(s.run, fidelity=replace(
-            s.run.fidelity, photons="expected", shot="poisson", dsp="")),
-            chip=replace(s.chip, dsp=replace(s.chip.dsp, mode="float")))
-        physical = replace(base, optics=replace(base.optics, emitter="isotropic",
-                                                convention="lambertian_na2"))  # as beside() runs
-        own = [sum(x.seconds for x in wall_estimate(sc, beside=False)) for sc in (base, physical)]
-        two = sum(own)  # pyro_paper_yield at psf: 0.022 s and, its isotropic footprint, 0.117 s
-        if 2 * own[0] <= PHYSICAL_LAW_MAX_S:  # the limit on twice the convention's run, as before
+    if beside and s.run.beside_physical_law and physical_law_applies(s):
+        two = law_comparison_seconds(law_comparison(s))
+        if two <= PHYSICAL_LAW_MAX_S:  # as chiptwin.twin.physical_law.beside decides
             terms.append(CostTerm("the physical law beside the paper's convention: two runs at "
                                   "the expected level, the convention's and the isotropic "
                                   "law's", two, "run.beside_physical_law"))
     return terms
-
-
-def _physical_law_applies(s: Scenario) -> bool:
-    """``chiptwin.twin.physical_law.applies`` and asked for."""
-    return (s.run.beside_physical_law and s.optics.law == "lambertian_na2"
-            and s.optics.coupling == "contact" and s.assay.kind != "flux")
 
 
 def _own_terms(s: Scenario) -> list[CostTerm]:

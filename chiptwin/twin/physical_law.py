@@ -13,7 +13,6 @@ Ratios of the sites' signal and power SNR, the median over the sites and the fir
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -21,45 +20,32 @@ import numpy as np
 from chiptwin.config import Scenario, ScenarioError, cost
 from chiptwin.config.consistency import check_consistency
 
-#: The comparison is left out of a run when its two runs are estimated above this (the scene's
-#: own run is what the user asked for; the comparison is a remark beside it). Unit: s.
-MAX_SECONDS = 5.0
-
-PHYSICAL_LAW = "isotropic"
-"""The law of randomly oriented emitters in solution (the dipole pattern's orientation average)."""
-
-
-def applies(s: Scenario) -> bool:
-    """A contact scene with light from sites under the paper's convention."""
-    return (s.optics.law == "lambertian_na2" and s.optics.coupling == "contact"
-            and s.assay.kind != "flux")
+PHYSICAL_LAW = cost.PHYSICAL_LAW
+applies = cost.physical_law_applies
 
 
 def beside(s: Scenario, run_once) -> dict[str, Any] | None:
     """The figures, or None where the convention is not in force. ``run_once(scenario)`` runs a
-    resolved scenario and returns its summary (the runner's own path, passed in)."""
+    resolved scenario and returns its summary (the runner's own path, passed in). Left out
+    (with the reason) when the two runs are estimated above ``cost.PHYSICAL_LAW_MAX_S``: the
+    scene's own run is what the user asked for, the comparison a remark beside it."""
     if not applies(s):
         return None
     if not s.run.beside_physical_law:
         return {"emitter": PHYSICAL_LAW, "computed": False,
                 "why_not": "run.beside_physical_law = false"}
-    at = replace(s.run.fidelity, photons="expected", shot="poisson", dsp="")
-    base = replace(s, run=replace(s.run, fidelity=at),
-                   chip=replace(s.chip, dsp=replace(s.chip.dsp, mode="float")))
-    physical = replace(base, optics=replace(base.optics, emitter=PHYSICAL_LAW,
-                                            convention="lambertian_na2"))
+    base, physical = cost.law_comparison(s)
     try:
         check_consistency(physical)
         check_consistency(base)
     except ScenarioError as exc:
         return {"emitter": PHYSICAL_LAW, "computed": False,
                 "why_not": f"{exc.key} = {exc.value!r}: {exc.allowed}"}
-    seconds = sum(t.seconds for sv in (base, physical)
-                  for t in cost.wall_estimate(sv, beside=False))
-    if seconds > MAX_SECONDS:
+    seconds = cost.law_comparison_seconds((base, physical))
+    if seconds > cost.PHYSICAL_LAW_MAX_S:
         return {"emitter": PHYSICAL_LAW, "computed": False,
                 "why_not": f"two expected-level runs, ≈ {seconds:.3g} s estimated, above "
-                           f"{MAX_SECONDS:g} s: run the scene with optics.emitter = "
+                           f"{cost.PHYSICAL_LAW_MAX_S:g} s: run the scene with optics.emitter = "
                            f"\"{PHYSICAL_LAW}\" to compare"}
     conv, phys = run_once(base)["sites"], run_once(physical)["sites"]
     signal = np.array([p["signal_e"] / c["signal_e"] if c["signal_e"] else np.nan
