@@ -253,9 +253,11 @@ def build_icarus(instances: Sequence[Instance], defines: Sequence[str] = ()) -> 
     tmp = Path(tempfile.mkdtemp(prefix="tmp-icarus-", dir=build_root()))
     try:
         (tmp / "ct_top.v").write_text(top)
+        # sources named relative to the build (sim.vvp records them for its messages): a build
+        # names no folder of the machine it was made on, and its sibling `final` reads the same
+        sources = [os.path.relpath(p, tmp) for p in (TB_DIR / "tb_icarus.v", *rtl_sources())]
         _run([tool.path, "-g2005", "-Wall", "-Wno-timescale", "-o", "sim.vvp", "-s", "tb_icarus",
-              *[f"-D{x}" for x in defines], str(TB_DIR / "tb_icarus.v"), "ct_top.v",
-              *[str(p) for p in rtl_sources()]], cwd=tmp)
+              *[f"-D{x}" for x in defines], sources[0], "ct_top.v", *sources[1:]], cwd=tmp)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
