@@ -89,10 +89,39 @@ class Datasheet:
     curves: dict[str, np.ndarray]
     measurement: Measurement = field(repr=False)
     input_values: dict[str, float | None] = field(default_factory=dict)
+    #: A measured camera's curves beside its twin's (:mod:`chiptwin.characterize.overlay`).
+    overlay: list | None = None
 
 
-def build_datasheet(m: Measurement, s: Scenario) -> Datasheet:
-    """Evaluate a measurement into the datasheet (and the scenario's own values beside it)."""
+#: Why a figure is missing, by the first word of its key: the series behind it is not in the data.
+_UNMEASURED = {"dark": "one exposure time: the dark current needs the exposure varied",
+               "dsnu": "the data set has no spatial stacks",
+               "prnu": "the data set has no spatial stacks",
+               "reset": "a camera's output carries no raw reset samples"}
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """The standard's figures of a measurement, the twin's or a camera's, before any scenario is
+    set beside them: the figures (every key of :data:`PARAMETERS`; ``Figure(None, note=…)`` where
+    the data cannot give one), the flags, and what the curves and fit ranges are drawn from."""
+
+    figures: dict[str, Figure]
+    flags: dict[str, bool]
+    linearity: ev.Linearity
+    i_sat: int
+    gain: float
+    qe: float
+    sigma_y: Figure
+    sigma_d: Figure
+
+
+def evaluate_measurement(m: Measurement) -> Evaluation:
+    """Every figure of the standard from a measurement's series (EMVA 1288 Release 4.0 Linear).
+
+    A series the measurement does not have (a camera's data set has no temperature series, and
+    may have no spatial stacks) leaves its figures unresolved with the reason in their note.
+    """
     t = m.temporal
     i_sat = ev.saturation_index(t)
     gain, gain_se = ev.system_gain(t, i_sat)
@@ -109,26 +138,41 @@ def build_datasheet(m: Measurement, s: Scenario) -> Datasheet:
         "temporal_dark_noise_dn": sigma_y,
     }
     f.update(_saturation_figures(m, i_sat, sigma_y, gain, gain_se, resp, resp_se))
-    f["dark_current"], f["dark_current_from_variance"] = ev.dark_current(t, gain, gain_se)
-    f["doubling_temperature"] = ev.doubling_temperature(m.temperature, gain)
-    f.update(ev.nonuniformity(m.spatial, gain, gain_se))
+    if np.unique(t.t_exp_s).size >= 2:
+        f["dark_current"], f["dark_current_from_variance"] = ev.dark_current(t, gain, gain_se)
+    f["doubling_temperature"] = (
+        ev.doubling_temperature(m.temperature, gain) if m.temperature is not None
+        else Figure(None, note="the data set has no dark series at several temperatures"))
+    if m.spatial is not None:
+        f.update(ev.nonuniformity(m.spatial, gain, gain_se))
     lin = ev.linearity(t, i_sat)
     f["linearity_error"] = Figure(lin.le)
     f["linearity_error_min"], f["linearity_error_max"] = Figure(lin.le_min), Figure(lin.le_max)
     f["dark_offset"] = ev.dark_offset(t)
-    f["reset_level"] = Figure(t.reset_level_dn, t.reset_level_se_dn)
-    bench = Bench(s)
+    if np.isfinite(t.reset_level_dn):
+        f["reset_level"] = Figure(t.reset_level_dn, t.reset_level_se_dn)
+    for key in PARAMETERS:
+        if key not in f:
+            f[key] = Figure(None, note=_UNMEASURED[key.split("_")[0]])
     flags = {
         "quantisation_regime": bool(sigma_y.value < ev.QUANTISATION_REGIME_DN),
         "saturation_reached": bool(i_sat < len(t.t_exp_s) - 1),
         "sigma_d_upper_limit": sigma_d.upper_limit,
     }
+    return Evaluation({k: f[k] for k in PARAMETERS}, flags, lin, i_sat, gain, qe, sigma_y,
+                      sigma_d)
+
+
+def build_datasheet(m: Measurement, s: Scenario) -> Datasheet:
+    """Evaluate the twin's measurement into the datasheet (and the scenario's own values
+    beside it)."""
+    e = evaluate_measurement(m)
+    bench = Bench(s)
     return Datasheet(
-        camera=m.camera, figures={k: f[k] for k in PARAMETERS if k in f},
-        scenario_values=scenario_values(s, bench, m), flags=flags,
-        notes=_notes(m, bench, flags, sigma_y, gain),
-        conditions=_conditions(m), fit_ranges=_fit_ranges(t, i_sat, lin),
-        curves=_curves(m, qe, sigma_d, gain, lin), measurement=m)
+        camera=m.camera, figures=e.figures, scenario_values=scenario_values(s, bench, m),
+        flags=e.flags, notes=_notes(m, bench, e.flags, e.sigma_y, e.gain),
+        conditions=_conditions(m), fit_ranges=fit_ranges(m.temporal, e.i_sat, e.linearity),
+        curves=curves(m, e), measurement=m)
 
 
 def _qe(gain: float, gain_se: float, resp: float, resp_se: float) -> tuple[float, float]:
@@ -142,7 +186,8 @@ def _saturation_figures(m: Measurement, i_sat: int, sigma_y: Figure, gain: float
     the system gain K and the responsivity R (η = R/K) with their standard errors."""
     qe, rel_qe = _qe(gain, gain_se, resp, resp_se)
     t, area = m.temporal, m.camera.pixel_area_um2
-    step = float(t.mu_p[1] - t.mu_p[0])
+    # the grid's step at saturation (a camera's data set need not be equally spaced)
+    step = float(np.diff(t.mu_p)[max(i_sat - 1, 0)])
     p_sat = float(t.mu_p[i_sat])
     e_sat = qe * p_sat
     p_min = ev.sensitivity_threshold(qe, sigma_y.value, gain)
@@ -167,7 +212,9 @@ def _saturation_figures(m: Measurement, i_sat: int, sigma_y: Figure, gain: float
         "snr_max_db": Figure(20 * np.log10(snr), db * rel_qe / 2),
         "snr_max_bits": Figure(float(np.log2(snr)), rel_qe / 2 / np.log(2.0)),
         "absolute_sensitivity_threshold": Figure(p_min, p_min_se),
-        "absolute_sensitivity_threshold_area": Figure(p_min / area, p_min_se / area),
+        "absolute_sensitivity_threshold_area": (
+            Figure(p_min / area, p_min_se / area) if area is not None
+            else Figure(None, note="needs the pixel's size, which the data set does not give")),
         "absolute_sensitivity_threshold_e": Figure(qe * p_min, float(du)),
         "dynamic_range": Figure(dr, dr * rel_dr, resolution=step / p_min),
         "dynamic_range_db": Figure(20 * np.log10(dr), db * rel_dr),
@@ -288,7 +335,7 @@ def _conditions(m: Measurement) -> dict[str, Any]:
     }
 
 
-def _fit_ranges(t, i_sat: int, lin: ev.Linearity) -> dict[str, Any]:
+def fit_ranges(t, i_sat: int, lin: ev.Linearity) -> dict[str, Any]:
     sens = ev.sensitivity_range(t, i_sat)
     return {
         "saturation_index": i_sat,
@@ -299,14 +346,17 @@ def _fit_ranges(t, i_sat: int, lin: ev.Linearity) -> dict[str, Any]:
     }
 
 
-def _curves(m: Measurement, qe: float, sigma_d: Figure, gain: float,
-            lin: ev.Linearity) -> dict[str, np.ndarray]:
-    t = m.temporal
+def curves(m: Measurement, e: Evaluation) -> dict[str, np.ndarray]:
+    """The plotted series of a measurement and its evaluation."""
+    t, qe, sigma_d, gain, lin = m.temporal, e.qe, e.sigma_d, e.gain, e.linearity
     col = t.column
     mu_y, var_y = col("bright", "mean"), col("bright", "var")
     signal = mu_y - col("dark", "mean")
     s2d = sigma_d.value**2 + ev.SIGMA2_Q / gain**2
-    mu_i, mu_i_se = ev.dark_current_by_temperature(m.temperature, gain)
+    mu_i, mu_i_se, temps = np.empty(0), np.empty(0), np.empty(0)
+    if m.temperature is not None:
+        mu_i, mu_i_se = ev.dark_current_by_temperature(m.temperature, gain)
+        temps = m.temperature.temperature_C
     return {
         "t_exp_s": t.t_exp_s, "mu_p": t.mu_p, "mu_y": mu_y, "var_y": var_y,
         "mu_y_dark": col("dark", "mean"), "var_y_dark": col("dark", "var"),
@@ -315,6 +365,6 @@ def _curves(m: Measurement, qe: float, sigma_d: Figure, gain: float,
         "snr_ideal": np.sqrt(t.mu_p), "snr_shot_limit": np.sqrt(qe * t.mu_p),
         "linearity_deviation_pct": lin.deviation_pct,
         "linearity_fit": lin.offset + lin.slope * t.mu_p,
-        "temperature_C": m.temperature.temperature_C,
+        "temperature_C": temps,
         "dark_current_e_per_s": mu_i, "dark_current_se_e_per_s": mu_i_se,
     }

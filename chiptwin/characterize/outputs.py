@@ -60,9 +60,13 @@ def to_json(d: Datasheet, meta: dict[str, Any]) -> dict[str, Any]:
             entry["input_value"] = _num(d.input_values.get(key))
         params[key] = entry
     cam = dataclasses.asdict(d.camera)
-    cam.update(pixel_area_um2=d.camera.pixel_area_um2, fill_factor=d.camera.fill_factor,
-               dn="one ADC LSB; the frame is the CMS difference mean(signal codes) − "
-                  "mean(reset codes) before dark subtraction and averaging")
+    if meta.get("measured"):  # a camera's data set: its own digital numbers, one output sample
+        cam.update(pixel_area_um2=d.camera.pixel_area_um2, cms_samples=1,
+                   dn="the camera's digital number, as its images hold it")
+    else:
+        cam.update(pixel_area_um2=d.camera.pixel_area_um2, fill_factor=d.camera.fill_factor,
+                   dn="one ADC LSB; the frame is the CMS difference mean(signal codes) − "
+                      "mean(reset codes) before dark subtraction and averaging")
     return {"standard": STANDARD, **meta, "camera": cam, "conditions": d.conditions,
             "flags": d.flags, "notes": d.notes, "parameters": params,
             "fit_ranges": d.fit_ranges,
@@ -76,13 +80,54 @@ def _cell(value: float | None) -> str:
 def markdown(d: Datasheet, meta: dict[str, Any], plots: list[tuple[str, str]]) -> str:
     """``datasheet.md`` in the layout of the standard's summary datasheet: the device and its
     operating point, then the figures by section, then the plots and the notes."""
-    cam, cond = d.camera, d.conditions
-    lines = [f"# EMVA 1288 datasheet: {meta['scenario']}", "",
-             f"{STANDARD}, measured on the chiptwin model (chiptwin {meta['chiptwin_version']}, "
-             f"seed {meta['seed']}, {meta['wall_time_s']:.2f} s).", ""]
+    lines = [f"# EMVA 1288 datasheet: {meta['scenario']}", ""]
+    if meta.get("measured"):
+        lines += [f"{STANDARD}, evaluated by chiptwin {meta['chiptwin_version']} from the "
+                  f"measured data set {meta['source']} ({meta['wall_time_s']:.2f} s).", ""]
+    else:
+        lines += [f"{STANDARD}, measured on the chiptwin model (chiptwin "
+                  f"{meta['chiptwin_version']}, seed {meta['seed']}, "
+                  f"{meta['wall_time_s']:.2f} s).", ""]
     if d.flags["quantisation_regime"]:
         lines += [f"> **{d.notes[0]}**", ""]
-    lines += ["## Device and operating point", "", "| | |", "|---|---|",
+    lines += _measured_device(d) if meta.get("measured") else _device(d)
+    lines += _figure_tables(d)
+    if meta.get("twin"):
+        lines += [f"## The twin of this camera ({meta['twin']['scenario']})", "",
+                  "The scenario written from this datasheet, read through the data set's own "
+                  "protocol (its exposures and photon levels), seed "
+                  f"{meta['twin']['seed']}: its figures are the scenario column above; each "
+                  "curve's largest residual in standard errors:", ""]
+        lines += [f"- {line}" for line in meta["twin"]["findings"]] + [""]
+    lines += ["## Plots", ""] + [f"![{cap}]({name})\n\n*{cap}*\n" for name, cap in plots]
+    lines += ["## Notes", ""] + [f"- {n}" for n in d.notes] + [""]
+    return "\n".join(lines)
+
+
+def _measured_device(d: Datasheet) -> list[str]:
+    """The device section of a camera's data set: what the data set states."""
+    cam, cond = d.camera, d.conditions
+    pitch = "not stated" if cam.pixel_pitch_um is None else f"{cam.pixel_pitch_um:g} µm"
+    spatial = ("none" if cond["spatial_images"] is None else
+               f"{cond['spatial_images']} bright + {cond['spatial_images']} dark images at "
+               f"{cond['spatial_exposure_s']:.4g} s ({cond['spatial_mu_p_photons']:.4g} "
+               "photons/pixel)")
+    return ["## Device and operating point", "", "| | |", "|---|---|",
+            f"| Sensor | {cam.cols} × {cam.rows} pixels, pitch {pitch}; {cam.adc_bits}-bit "
+            f"images |",
+            f"| Data set | {cam.descriptor}, EMVA 1288 release {cam.release} |",
+            f"| Photon transfer | {cond['ptc_points']} points, exposure "
+            f"{cond['ptc_exposure_s'][0]:.4g} … {cond['ptc_exposure_s'][1]:.4g} s, "
+            f"{cond['ptc_mu_p_photons'][0]:.4g} … {cond['ptc_mu_p_photons'][1]:.4g} "
+            f"photons/pixel, 2 bright + 2 dark images each |",
+            f"| Spatial | {spatial} |",
+            f"| Clipped values | {cond['clipped_values']} (at 0 or full scale) |", ""]
+
+
+def _device(d: Datasheet) -> list[str]:
+    """The device section of the twin's chip on its bench."""
+    cam, cond = d.camera, d.conditions
+    return ["## Device and operating point", "", "| | |", "|---|---|",
               f"| Sensor | {cam.rows} × {cam.cols} pixels, pitch {cam.pixel_pitch_um:g} µm, "
               f"photodiode {cam.diode_area_um2:g} µm² (fill factor {100 * cam.fill_factor:.3g} "
               "%) |",
@@ -99,19 +144,20 @@ def markdown(d: Datasheet, meta: dict[str, Any], plots: list[tuple[str, str]]) -
               f"2 dark images each ({cond['ptc_values_per_image']} values per image) |",
               f"| Spatial | {cond['spatial_images']} bright + {cond['spatial_images']} dark "
               f"images at {cond['spatial_exposure_s']:.4g} s (50 % of saturation) |", ""]
-    lines += _figure_tables(d)
-    lines += ["## Plots", ""] + [f"![{cap}]({name})\n\n*{cap}*\n" for name, cap in plots]
-    lines += ["## Notes", ""] + [f"- {n}" for n in d.notes] + [""]
-    return "\n".join(lines)
 
 
 def _figure_tables(d: Datasheet) -> list[str]:
-    extra = " | input" if d.input_values else ""
+    """The figures by section; a scenario column when a scenario sets the chip, an input column
+    when a datasheet configured it."""
+    label = "twin" if d.overlay else "scenario"
+    cols = [(label, d.scenario_values)] if d.scenario_values else []
+    if d.input_values:
+        cols.append(("input", d.input_values))
     out = []
     for section, keys in SECTIONS.items():
         out += [f"## {section}", "",
-                f"| quantity | symbol | value | unit | ± 1σ | scenario{extra} |",
-                "|---|---|---|---|---|---|" + ("---|" if extra else "")]
+                "| quantity | symbol | value | unit | ± 1σ |" + "".join(f" {c} |" for c, _ in cols),
+                "|---|---|---|---|---|" + "---|" * len(cols)]
         for key in keys:
             name, symbol, unit = PARAMETERS[key]
             f = d.figures[key]
@@ -120,10 +166,10 @@ def _figure_tables(d: Datasheet) -> list[str]:
                 value = "not resolved"
             elif f.note.startswith("not significant"):
                 value += " (within 2σ of 0)"
-            row = (f"| {name} | {symbol} | {value} | {unit} | {_cell(f.std_error)} | "
-                   f"{_cell(d.scenario_values.get(key, (None, ''))[0])} |")
-            if extra:
-                row += f" {_cell(d.input_values.get(key))} |"
+            row = f"| {name} | {symbol} | {value} | {unit} | {_cell(f.std_error)} |"
+            for c, values in cols:
+                v = values.get(key)
+                row += f" {_cell(v[0] if c == label and v is not None else v)} |"
             out.append(row)
         out.append("")
     return out

@@ -21,8 +21,17 @@ def make_plots(d: Datasheet, folder: Path) -> list[tuple[str, str]]:
     import matplotlib
 
     matplotlib.use("Agg")
-    return [draw(d, folder) for draw in (photon_transfer, snr, linearity, dark_signal,
-                                         histograms, dark_temperature)]
+    draws = [photon_transfer, snr, linearity, dark_signal]
+    if d.measurement.spatial is not None:
+        draws.append(histograms)
+    if d.measurement.temperature is not None:
+        draws.append(dark_temperature)
+    out = [draw(d, folder) for draw in draws]
+    if d.overlay:
+        from chiptwin.characterize.overlay import overlay_figure
+
+        out.append(overlay_figure(d.overlay, folder))
+    return out
 
 
 def _value(d: Datasheet, key: str) -> float:

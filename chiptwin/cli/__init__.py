@@ -120,6 +120,20 @@ def build_parser() -> argparse.ArgumentParser:
     ch.add_argument("--adc-converters", type=int, default=256, metavar="N",
                     help="with --adc: most converters measured, a grid over the array "
                     "(default 256)")
+    ch.add_argument("--measured", metavar="DIR",
+                    help="a camera's EMVA 1288 data set instead of a scenario (a folder with "
+                         "EMVA1288_Data.txt and its images): the same datasheet from measured "
+                         "images")
+    ch.add_argument("--pixel-pitch-um", type=float, metavar="UM",
+                    help="with --measured: the camera's pixel pitch (a data set does not carry "
+                         "it), for the per-area figures and --write-scenario")
+    ch.add_argument("--write-scenario", metavar="OUT.toml",
+                    help="with --measured: write the camera's twin as a scenario, read it "
+                         "through the data set's protocol and lay its curves over the measured "
+                         "ones (overlay.png)")
+    ch.add_argument("--write-measured", metavar="DIR",
+                    help="with a SCENARIO: also write the twin's protocol as an EMVA 1288 data "
+                         "set (single-frame images, as the format has one image size)")
     ch.add_argument("--quiet", action="store_true", help="no progress, no table")
     la = _command(sub, "ladder", "speed against error: every fidelity level of a scene "
                   "against the most faithful combination")
@@ -314,9 +328,15 @@ def _characterize(args: argparse.Namespace) -> int:
     from chiptwin.characterize.outputs import JSON_NAME, headline
     from chiptwin.config.outputs import check_out_dir, output_lock
 
+    if args.measured is not None:
+        return _characterize_measured(args)
+    for flag in ("pixel_pitch_um", "write_scenario"):
+        if getattr(args, flag) is not None:
+            raise ScenarioError("chiptwin", "--" + flag.replace("_", "-"), getattr(args, flag),
+                                "is only for --measured DIR (a camera's data set)")
     if args.scenario is None and args.from_datasheet is None:
         raise ScenarioError("chiptwin", "characterize", "(nothing)",
-                            "needs a SCENARIO, --from FILE.json, or both")
+                            "needs a SCENARIO, --from FILE.json, or both (or --measured DIR)")
     path = _scenario_path(args.scenario or "pyro_1fmol")
     datasheet = args.from_datasheet
     if datasheet:
@@ -331,12 +351,67 @@ def _characterize(args: argparse.Namespace) -> int:
         return _characterize_adc(scenario, args)
     out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}-emva1288",
                         marker=JSON_NAME)  # before the measurement
+    protocol = None
+    if args.write_measured:
+        from chiptwin.characterize.export import single_frame_protocol
+        from chiptwin.config.outputs import check_out_dir as check
+
+        check(args.write_measured, marker="EMVA1288_Data.txt")
+        protocol = single_frame_protocol()
     progress = None if args.quiet else _Progress("images")
     with output_lock(out), _working(progress):
-        result = characterize(scenario, progress=progress, datasheet_in=datasheet)
+        result = characterize(scenario, protocol, progress=progress, datasheet_in=datasheet,
+                              keep_images=bool(args.write_measured))
+        out = result.write(out)
+        if args.write_measured:
+            from chiptwin.characterize.export import write_measured
+
+            written = write_measured(result.datasheet.measurement, args.write_measured,
+                                     scenario.scenario.name)
+    if not args.quiet:
+        print(fit(headline(result.datasheet)))
+        print(f"  outputs in {_shown(out)}/ ({JSON_NAME}, datasheet.md, plots)")
+        if args.write_measured:
+            print(f"  the protocol as an EMVA 1288 data set in {_shown(written)}/")
+    return 0
+
+
+def _characterize_measured(args: argparse.Namespace) -> int:
+    """``characterize --measured DIR``: a camera's data set through the same evaluation."""
+    from chiptwin.characterize.measured import characterize_measured
+    from chiptwin.characterize.outputs import JSON_NAME, headline
+    from chiptwin.config.outputs import check_out_dir, output_lock
+
+    for flag in ("scenario", "from_datasheet", "write_measured", "seed"):
+        if getattr(args, flag) is not None or (flag == "scenario" and args.set):
+            raise ScenarioError("chiptwin", "--measured", args.measured,
+                                "reads a camera's data set: it takes no SCENARIO, --from, --set, "
+                                "--seed or --write-measured")
+    if args.adc:
+        raise ScenarioError("chiptwin", "--adc", True, "measures a scenario's converters, not "
+                            "a camera's data set: drop --measured or --adc")
+    folder = Path(args.measured)
+    out = check_out_dir(args.out or Path("out") / f"{folder.resolve().name}-emva1288",
+                        marker=JSON_NAME)
+    if args.write_scenario is not None and args.pixel_pitch_um is None:
+        raise ScenarioError("chiptwin", "--pixel-pitch-um", None,
+                            "is needed with --write-scenario: a data set gives photons per "
+                            "pixel, not the pixel's size")
+    progress = None if args.quiet else _Progress("images")
+    with output_lock(out), _working(progress):
+        result = characterize_measured(folder, args.pixel_pitch_um, progress=progress)
+        if args.write_scenario is not None:
+            from chiptwin.characterize.camera_twin import replay_twin
+
+            replay_twin(result, args.write_scenario)
         out = result.write(out)
     if not args.quiet:
         print(fit(headline(result.datasheet)))
+        if args.write_scenario is not None:
+            print("  the twin through the data set's protocol, largest residual below "
+                  "saturation:")
+            print(fit([f"    {line}" for line in result.meta["twin"]["findings"]]))
+            print(f"  scenario written to {_shown(Path(args.write_scenario))}")
         print(f"  outputs in {_shown(out)}/ ({JSON_NAME}, datasheet.md, plots)")
     return 0
 

@@ -46,22 +46,32 @@ expanded one at a time around the base scenario's own value (:mod:`chiptwin.stud
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import hashlib
 import itertools
 import json
 import math
 import re
-import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from chiptwin.config import Scenario, ScenarioError
-from chiptwin.config.fields import allowed_text, check_value
-from chiptwin.config.load import apply_override, read_toml, scenario_from_dict, type_hints
-from chiptwin.config.schema import ASSAY_COMMON_KEYS, ASSAY_KIND_KEYS
+from chiptwin.config.fields import allowed_text
+from chiptwin.config.load import read_toml, scenario_from_dict
 from chiptwin.study.metrics import CATALOGUE, check_metric_applies
+from chiptwin.study.readers import (
+    Errors,
+    check_key,
+    finite_pair,
+    in_rule,
+    inline_table,
+    keyed_table,
+    pin_datasheet,
+    put_key,
+    scenario_path_of,
+    table_list,
+    unknown,
+)
 from chiptwin.study.sensitivity import Assumption, conditions
 
 #: Rows a study may hold: 10⁶ runs of the 0.1 s reference scene is ≈ 14 h on 2 cores, beyond
@@ -78,7 +88,7 @@ MAX_REPLICATES = 10_000
 MAX_LABEL = 200
 SCALES = ("lin", "log", "int")
 SEARCHES = ("grid", "bisect")
-KINDS = ("budget", "sensitivity")
+KINDS = ("budget", "sensitivity", "calibrate")
 _REQ = re.compile(r"^\s*(<=|>=)\s*([-+0-9.eE]+|inf)\s*$")
 
 
@@ -142,6 +152,7 @@ class Study:
     datasheet_text: str = ""  # the base scenario's from_datasheet file, part of the identity
     kind: str = "budget"
     assumptions: tuple[Assumption, ...] = ()  # kind "sensitivity": their axes end ``axes``
+    calibration: Any = None  # kind "calibrate": a chiptwin.study.calibrate_spec.Calibration
 
     @property
     def budget_axes(self) -> tuple[Axis, ...]:
@@ -154,8 +165,10 @@ class Study:
     @property
     def hash(self) -> str:
         """Identity of what the rows depend on: the study text and the resolved base scenario."""
-        blob = json.dumps([self.text, self.base_raw, self.datasheet_text], sort_keys=True,
-                          default=str)
+        parts = [self.text, self.base_raw, self.datasheet_text]
+        if self.calibration is not None:  # the measured data are part of what it depends on
+            parts.append(self.calibration.target.hash)
+        blob = json.dumps(parts, sort_keys=True, default=str)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
     def points(self) -> list[Point]:
@@ -196,9 +209,10 @@ STUDY_KEYS: dict[str, str] = {
              "or a grid with stop_early)",
     "verify": "integer in [0, 10], default 1; points above a bisect answer re-checked for "
               "monotonicity",
-    "kind": "\"budget\" (default: the cheapest budget per condition) or \"sensitivity\" (the "
+    "kind": "\"budget\" (default: the cheapest budget per condition), \"sensitivity\" (the "
             "same answer, and how far each [[study.assumption]] moves it: one budget axis, a "
-            "requirement, at least one assumption)",
+            "requirement, at least one assumption) or \"calibrate\" (scenario keys fitted to "
+            "measured data, with intervals: its own keys, chiptwin.study.calibrate_spec)",
     "axis": "[[study.axis]] tables, at least one; cheapest and most significant first",
     "assumption": "[[study.assumption]] tables (kind = \"sensitivity\" only): a scenario value "
                   "not known, its plausible range and why",
@@ -257,34 +271,39 @@ def load_study(path: str | Path, resolve_scenario=None) -> Study:
 def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | None = None,
                     folder: Path = Path("."), resolve_scenario=None) -> Study:
     """Build a :class:`Study` from a parsed table (see :func:`load_study`)."""
-    err = _Errors(source)
+    err = Errors(source)
     for key in raw:
         if key != "study":
-            err.fail(key, raw[key], _unknown(key, {"study"}))
+            err.fail(key, raw[key], unknown(key, {"study"}))
     st = raw.get("study")
     if not isinstance(st, dict):
         err.fail("[study]", st if st is not None else dataclasses.MISSING, "section is required")
+    if st.get("kind") == "calibrate":  # its own keys and checks
+        from chiptwin.study.calibrate_spec import calibrate_study
+
+        return calibrate_study(err, st, text if text is not None else json.dumps(raw), folder,
+                               resolve_scenario)
     for key in st:
         if key not in _STUDY_KEYS:
-            err.fail(f"study.{key}", st[key], _unknown(key, _STUDY_KEYS))
+            err.fail(f"study.{key}", st[key], unknown(key, _STUDY_KEYS))
     name = err.string(st, "name", r"[A-Za-z0-9_.-]+", "letters, digits, '_', '-', '.' "
                       "(it names the output folder)")
-    scen_path = _scenario_path(err, st, folder, resolve_scenario)
+    scen_path = scenario_path_of(err, st, folder, resolve_scenario)
     base_raw = read_toml(scen_path)
-    datasheet_text = _pin_datasheet(base_raw, scen_path)
-    for k, v in _table(err, st, "set").items():
-        _check_key(err, "study.set", k, base_raw)
-        _put(base_raw, k, v, source)
+    datasheet_text = pin_datasheet(base_raw, scen_path)
+    for k, v in inline_table(err, st, "set").items():
+        check_key(err, "study.set", k, base_raw)
+        put_key(base_raw, k, v, source)
     seed = err.integer(st, "seed", 0, 2**63 - 1, "the root of np.random.SeedSequence")
     replicates = err.integer(st, "replicates", 1, MAX_REPLICATES,
                              "runs per point; the cap per point with bisect")
-    axes = tuple(_axis(err, i, a, base_raw) for i, a in enumerate(_list(err, st, "axis")))
+    axes = tuple(_axis(err, i, a, base_raw) for i, a in enumerate(table_list(err, st, "axis")))
     if not axes:
         err.fail("study.axis", dataclasses.MISSING, "at least one [[study.axis]] is required")
     metrics = _metrics(err, st)
-    reference = _table(err, st, "reference")
+    reference = inline_table(err, st, "reference")
     for k in reference:
-        _check_key(err, "study.reference", k, base_raw)
+        check_key(err, "study.reference", k, base_raw)
     requirements, confidence = _requirements(err, st, metrics, reference)
     kind = err.choice(st, "kind", KINDS, "budget")
     assumptions = _assumptions(err, st, kind, axes, base_raw, str(scen_path))
@@ -293,7 +312,7 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
         scenario_path=str(scen_path), base_raw=base_raw, seed=seed, replicates=replicates,
         axes=axes, metrics=metrics, requirements=requirements, confidence=confidence,
         vary_chip=err.boolean(st, "vary_chip", False), reference=reference,
-        overrides=_table(err, st, "set"), search=err.choice(st, "search", SEARCHES, "grid"),
+        overrides=inline_table(err, st, "set"), search=err.choice(st, "search", SEARCHES, "grid"),
         stop_early=err.boolean(st, "stop_early", False),
         batch=err.integer(st, "batch", 1, MAX_REPLICATES, "replicates added per look",
                           default=10),
@@ -308,21 +327,7 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
     return study
 
 
-def _pin_datasheet(base_raw: dict[str, Any], scenario_path: Path) -> str:
-    """A base scenario configured from an EMVA 1288 datasheet: the file is pinned by its
-    absolute path (points carry another source name) and its text returned, so a changed
-    datasheet changes the study's identity and is refused for resumption like a changed file."""
-    pixel = base_raw.get("chip", {}).get("pixel", {})
-    if not isinstance(pixel, dict) or "from_datasheet" not in pixel:
-        return ""
-    from chiptwin.config.datasheet import resolve_path
-
-    path = resolve_path(pixel["from_datasheet"], str(scenario_path)).resolve()
-    pixel["from_datasheet"] = str(path)
-    return path.read_text(encoding="utf-8")
-
-
-def _check_whole(err: _Errors, study: Study) -> None:
+def _check_whole(err: Errors, study: Study) -> None:
     """Rules between fields: sizes, the bisect shape, metrics the base scenario can give."""
     lengths = {len(a.values) for a in study.axes if a.zip}
     if len(lengths) > 1:
@@ -409,7 +414,7 @@ def point_scenario(study: Study, params: dict[str, Any], seed: int,
     """The validated scenario of one point and seed (raises ScenarioError when inconsistent)."""
     raw = json.loads(json.dumps(study.base_raw))  # a deep copy of plain TOML data
     for key, value in params.items():
-        _put(raw, key, value, study.source)
+        put_key(raw, key, value, study.source)
     raw.setdefault("scenario", {})["seed"] = seed
     if fixed_pattern_seed is not None:
         raw.setdefault("chip", {})["fixed_pattern_seed"] = fixed_pattern_seed
@@ -419,146 +424,12 @@ def point_scenario(study: Study, params: dict[str, Any], seed: int,
     return scenario_from_dict(raw, f"{study.scenario_path} [{label}]")
 
 
-def _put(raw: dict[str, Any], key: str, value: Any, source: str) -> None:
-    apply_override(raw, f"{key}={json.dumps(value)}", source)
-
-
 # ---------------------------------------------------------------- field readers
 
 
-class _Errors:
-    """Reads fields of ``[study]`` and raises ScenarioError naming this file."""
-
-    def __init__(self, source: str) -> None:
-        self.source = source
-
-    def fail(self, key: str, value: Any, allowed: str) -> typing.NoReturn:
-        raise ScenarioError(self.source, key, value, allowed)
-
-    def string(self, t: dict, key: str, pattern: str, allowed: str) -> str:
-        v = t.get(key, dataclasses.MISSING)
-        if not isinstance(v, str) or not re.fullmatch(pattern, v) or v in (".", ".."):
-            self.fail(f"study.{key}", v, f"must be {allowed}")
-        return v
-
-    def text(self, t: dict, key: str) -> str:
-        v = t.get(key, "")
-        if not isinstance(v, str):
-            self.fail(f"study.{key}", v, "must be text (a string)")
-        return v
-
-    def integer(self, t: dict, key: str, lo: int, hi: int, why: str, default=None) -> int:
-        v = t.get(key, dataclasses.MISSING if default is None else default)
-        if type(v) is not int or not lo <= v <= hi:
-            self.fail(f"study.{key}", v, f"must be an integer in [{lo}, {hi}] ({why})")
-        return v
-
-    def boolean(self, t: dict, key: str, default: bool) -> bool:
-        v = t.get(key, default)
-        if not isinstance(v, bool):
-            self.fail(f"study.{key}", v, "must be true or false")
-        return v
-
-    def choice(self, t: dict, key: str, choices: tuple, default: str) -> str:
-        v = t.get(key, default)
-        if v not in choices:
-            self.fail(f"study.{key}", v, "must be one of " + ", ".join(map(repr, choices)))
-        return v
-
-
-def _unknown(key: str, allowed: set[str]) -> str:
-    close = difflib.get_close_matches(key, sorted(allowed), n=1, cutoff=0.6)
-    hint = f"did you mean {close[0]!r}? " if close else ""
-    return f"unknown key; {hint}allowed: {', '.join(sorted(allowed))}"
-
-
-def _table(err: _Errors, st: dict, key: str) -> dict[str, Any]:
-    """An inline table of scenario keys; ``{ chip.adc.bits = 20 }`` (nested by TOML) and
-    ``{ "chip.adc.bits" = 20 }`` (one dotted key) read the same."""
-    v = st.get(key, {})
-    if not isinstance(v, dict):
-        err.fail(f"study.{key}", v, 'must be an inline table of "section.key" = value')
-    flat: dict[str, Any] = {}
-
-    def walk(t: dict, prefix: str) -> None:
-        for k, x in t.items():
-            if isinstance(x, dict):
-                walk(x, f"{prefix}{k}.")
-            else:
-                flat[prefix + k] = x
-
-    walk(v, "")
-    return flat
-
-
-def _list(err: _Errors, st: dict, key: str) -> list[dict]:
-    v = st.get(key, [])
-    if not isinstance(v, list) or not all(isinstance(x, dict) for x in v):
-        err.fail(f"study.{key}", v, f"must be [[study.{key}]] tables")
-    return v
-
-
-def _scenario_path(err: _Errors, st: dict, folder: Path, resolve) -> Path:
-    v = st.get("scenario", dataclasses.MISSING)
-    if not isinstance(v, str) or not v:
-        err.fail("study.scenario", v, "must be a bundled scenario name or a path to a TOML file")
-    for candidate in (folder / v, Path(v)):
-        if candidate.is_file():
-            return candidate
-    found = resolve(v) if resolve else None
-    if found is not None and Path(found).is_file():
-        return Path(found)
-    err.fail("study.scenario", v, f"no such file (looked in {folder} and the working folder) "
-             "and no bundled scenario of that name; `chiptwin list` shows them")
-
-
-def _check_key(err: _Errors, where: str, key: str, base_raw: dict) -> dataclasses.Field:
-    """``key`` must name a scenario field (``chip.adc.bits``), and an assay key of the base
-    scenario's kind; returns the field (its metadata is the key's rule)."""
-    cls: Any = Scenario
-    parts = key.split(".")
-    for i, part in enumerate(parts):
-        hints = type_hints(cls) if dataclasses.is_dataclass(cls) else {}
-        fields = {f.name: f for f in dataclasses.fields(cls) if f.name != "source"} \
-            if hints else {}
-        if part not in fields:
-            prefix = ".".join(parts[:i]) or "(top)"
-            err.fail(where, key, f"{part!r} is not a key of {prefix}; " +
-                     _unknown(part, set(fields)))
-        cls, found = hints[part], fields[part]
-    if dataclasses.is_dataclass(cls):
-        err.fail(where, key, "names a section; name one of its keys")
-    if parts[0] == "assay" and len(parts) == 2:
-        kind = base_raw.get("assay", {}).get("kind")
-        allowed = ASSAY_KIND_KEYS.get(kind, frozenset()) | ASSAY_COMMON_KEYS
-        if parts[1] not in allowed:
-            err.fail(where, key, f"not used by the scenario's assay kind {kind!r}; its keys: "
-                     + ", ".join(sorted(allowed)))
-    return found
-
-
-def _keyed_table(err: _Errors, where: str, table: dict, allowed: set[str], example: str,
-                 base_raw: dict) -> tuple[str, dataclasses.Field]:
-    """A ``[[study.axis]]`` or ``[[study.assumption]]`` table's own keys checked against
-    ``allowed``, and its ``key``: a scenario key (:func:`_check_key`). Returns it and its rule."""
-    for k in table:
-        if k not in allowed:
-            err.fail(f"{where}.{k}", table[k], _unknown(k, allowed))
-    key = table.get("key", dataclasses.MISSING)
-    if not isinstance(key, str):
-        err.fail(f"{where}.key", key, f'must be a scenario key, e.g. "{example}"')
-    return key, _check_key(err, f"{where}.key", key, base_raw)
-
-
-def _finite_pair(r: Any) -> bool:
-    """``[lo, hi]``: a list of two finite numbers (not booleans)."""
-    return isinstance(r, list) and len(r) == 2 and all(
-        isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x) for x in r)
-
-
-def _axis(err: _Errors, i: int, a: dict, base_raw: dict) -> Axis:
+def _axis(err: Errors, i: int, a: dict, base_raw: dict) -> Axis:
     where = f"study.axis[{i}]"
-    key, _ = _keyed_table(err, where, a, _AXIS_KEYS, "chip.adc.bits", base_raw)
+    key, _ = keyed_table(err, where, a, _AXIS_KEYS, "chip.adc.bits", base_raw)
     if ("values" in a) == ("range" in a):
         err.fail(where, key, "needs exactly one of values = [...] or range = [lo, hi] + scale")
     values = _axis_values(err, where, a) if "range" in a else a["values"]
@@ -572,9 +443,9 @@ def _axis(err: _Errors, i: int, a: dict, base_raw: dict) -> Axis:
     return Axis(key, tuple(values), a.get("given", False), a.get("zip", False))
 
 
-def _axis_values(err: _Errors, where: str, a: dict) -> list:
+def _axis_values(err: Errors, where: str, a: dict) -> list:
     r, scale = a["range"], a.get("scale", dataclasses.MISSING)
-    if not (_finite_pair(r) and r[0] < r[1]):
+    if not (finite_pair(r) and r[0] < r[1]):
         err.fail(f"{where}.range", r, "must be [lo, hi], two finite numbers with lo < hi")
     if scale not in SCALES:
         err.fail(f"{where}.scale", scale, "must be one of 'lin', 'log' (with n) or 'int'")
@@ -596,18 +467,18 @@ def _axis_values(err: _Errors, where: str, a: dict) -> list:
     return [float(f"{lo + i * (hi - lo) / (n - 1):.10g}") for i in range(n)]
 
 
-def _metrics(err: _Errors, st: dict) -> tuple[str, ...]:
+def _metrics(err: Errors, st: dict) -> tuple[str, ...]:
     names = []
-    for i, m in enumerate(_list(err, st, "metric")):
+    for i, m in enumerate(table_list(err, st, "metric")):
         for k in m:
             if k != "name":
-                err.fail(f"study.metric[{i}].{k}", m[k], _unknown(k, {"name"}))
+                err.fail(f"study.metric[{i}].{k}", m[k], unknown(k, {"name"}))
         name = m.get("name", dataclasses.MISSING)
         if not isinstance(name, str):
             err.fail(f"study.metric[{i}].name", name, "must be the name of a metric (text), "
                      "one of " + ", ".join(sorted(CATALOGUE)))
         if name not in CATALOGUE:
-            err.fail(f"study.metric[{i}].name", name, _unknown(str(name), set(CATALOGUE))
+            err.fail(f"study.metric[{i}].name", name, unknown(str(name), set(CATALOGUE))
                      .replace("unknown key", "unknown metric"))
         if name in names:
             err.fail(f"study.metric[{i}].name", name, "is listed twice")
@@ -617,9 +488,9 @@ def _metrics(err: _Errors, st: dict) -> tuple[str, ...]:
     return tuple(names)
 
 
-def _requirements(err: _Errors, st: dict, metrics: tuple[str, ...], reference: dict
+def _requirements(err: Errors, st: dict, metrics: tuple[str, ...], reference: dict
                   ) -> tuple[tuple[Requirement, ...], float]:
-    req = _table(err, st, "requirement")
+    req = inline_table(err, st, "requirement")
     confidence = req.pop("confidence", 0.95)
     if not isinstance(confidence, float) or not 0.5 <= confidence <= 0.9999:
         err.fail("study.requirement.confidence", confidence,
@@ -643,13 +514,13 @@ def _requirements(err: _Errors, st: dict, metrics: tuple[str, ...], reference: d
 # ---------------------------------------------------------------- assumptions (kind sensitivity)
 
 
-def _assumptions(err: _Errors, st: dict, kind: str, axes: tuple[Axis, ...], base_raw: dict,
+def _assumptions(err: Errors, st: dict, kind: str, axes: tuple[Axis, ...], base_raw: dict,
                  scenario_path: str) -> tuple[Assumption, ...]:
     """The ``[[study.assumption]]`` tables, each checked against its key's own rule and the base
     scenario's value (:class:`~chiptwin.study.sensitivity.Assumption`). A key also in
     ``study.reference`` keeps that value in every condition's ideal point: the ideal does not
     move with the assumption (an ideal converter has no INL whatever the chip's is)."""
-    tables = _list(err, st, "assumption")
+    tables = table_list(err, st, "assumption")
     if kind != "sensitivity":
         if tables:
             err.fail("study.assumption", [t.get("key") for t in tables],
@@ -667,9 +538,9 @@ def _assumptions(err: _Errors, st: dict, kind: str, axes: tuple[Axis, ...], base
     return tuple(out)
 
 
-def _assumption(err: _Errors, where: str, t: dict, base_raw: dict, base: Scenario,
+def _assumption(err: Errors, where: str, t: dict, base_raw: dict, base: Scenario,
                 taken: dict[str, str]) -> Assumption:
-    key, rule = _keyed_table(err, where, t, _ASSUMPTION_KEYS, "chip.pixel.read_noise_e",
+    key, rule = keyed_table(err, where, t, _ASSUMPTION_KEYS, "chip.pixel.read_noise_e",
                              base_raw)
     if rule.metadata.get("choices") or rule.metadata.get("kind") not in (float, int):
         err.fail(f"{where}.key", key, f"is not a number ({allowed_text(rule)}); an assumption "
@@ -677,11 +548,11 @@ def _assumption(err: _Errors, where: str, t: dict, base_raw: dict, base: Scenari
     if key in taken:
         err.fail(f"{where}.key", key, taken[key])
     r = t.get("range", dataclasses.MISSING)
-    if not _finite_pair(r):
+    if not finite_pair(r):
         err.fail(f"{where}.range", r, f"{key}: must be [lo, hi], two finite numbers")
     if r[0] >= r[1]:
         err.fail(f"{where}.range", r, f"{key}: lo must be below hi (the low end first)")
-    lo, hi = (_in_rule(err, f"{where}.range", r, rule, key, x) for x in r)
+    lo, hi = (in_rule(err, f"{where}.range", r, rule, key, x) for x in r)
     ref = base
     for part in key.split("."):
         ref = getattr(ref, part)
@@ -695,15 +566,7 @@ def _assumption(err: _Errors, where: str, t: dict, base_raw: dict, base: Scenari
     return Assumption(key, lo, hi, ref, why.strip())
 
 
-def _in_rule(err: _Errors, where: str, r: list, rule: dataclasses.Field, key: str, x):
-    """One end of a range checked by the key's own rule (the scenario schema's)."""
-    try:
-        return check_value(rule, x, where, key)
-    except ScenarioError:
-        err.fail(where, r, f"{key} = {x!r} is outside the key's own range: {allowed_text(rule)}")
-
-
-def _with_design(err: _Errors, study: Study) -> Study:
+def _with_design(err: Errors, study: Study) -> Study:
     """A sensitivity study's conditions as given axes zipped together, after the study's own
     axes (:func:`~chiptwin.study.sensitivity.conditions`); every condition checked."""
     budget = study.budget_axes
