@@ -6,7 +6,11 @@ dark stack of 50 images; 300 PNG images):
 
 1. ``read_descriptor``: the descriptor parsed and checked, each image's existence checked;
 2. every image loaded and checked (``load_image``: Pillow, size, values within the bits);
-3. the statistics: ``pair_stats`` of every temporal pair, a ``StackAccumulator`` of each stack.
+3. the statistics: ``pair_stats`` of every temporal pair, a ``StackAccumulator`` of each stack;
+4. the whole path a user takes, ``characterize_measured`` (read, statistics and the evaluation
+   into the datasheet), beside the ``emva1288`` reference implementation's parser, loader and
+   ``Results1288`` on the same folder, alternating, as the baseline (when it is installed: the
+   test extra).
 
 Minimum and median over ``--rounds`` (the machine is shared and noisy), with images per second.
 
@@ -21,6 +25,7 @@ of 8) is read instead: the same code path, a smoke run.
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import tempfile
@@ -29,16 +34,13 @@ from pathlib import Path
 
 import numpy as np
 
-from chiptwin.characterize.descriptor import (
-    Descriptor,
-    load_image,
-    read_descriptor,
-    write_descriptor,
-)
+from chiptwin.characterize.descriptor import Descriptor, load_image, read_descriptor
+from chiptwin.characterize.descriptor_write import write_descriptor
 from chiptwin.characterize.estimators import StackAccumulator, pair_stats
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT = ROOT.parent / "shared" / "data" / "real" / "emva1288" / "set001_ccd_12bit_crop128"
+DATA = Path(os.environ.get("CHIPTWIN_DATA") or ROOT.parent / "shared" / "data" / "real")
+DEFAULT = DATA / "emva1288" / "set001_ccd_12bit_crop128"
 
 
 def load_all(d: Descriptor) -> dict[Path, np.ndarray]:
@@ -88,7 +90,39 @@ def one_round(path: Path) -> tuple[dict[str, float], Descriptor, int]:
     statistics_of(d, images)
     t3 = time.perf_counter()
     took.update(read=t1 - t0, load=t2 - t1, stats=t3 - t2, total=t3 - t0)
+    from chiptwin.characterize.measured import characterize_measured
+
+    t4 = time.perf_counter()
+    characterize_measured(path)
+    took["chiptwin"] = time.perf_counter() - t4
+    reference = emva1288_seconds(d)
+    if reference is not None:
+        took["emva1288"] = reference
     return took, d, len(images)
+
+
+def emva1288_seconds(d: Descriptor) -> float | None:
+    """The reference implementation on the same folder (None when it is not installed)."""
+    import logging
+
+    try:
+        from emva1288.process import data, loader, parser, results
+    except ImportError:
+        return None
+    name = "asfarray"  # emva1288 1.0.2 calls np.asfarray, which NumPy 2 removed
+    added = not hasattr(np, name)
+    if added:
+        setattr(np, name, lambda a, dtype=np.float64: np.asarray(a, dtype=dtype))
+    try:
+        t0 = time.perf_counter()
+        desc = parser.ParseEmvaDescriptorFile(str(d.path), loglevel=logging.WARNING)
+        imgs = loader.LoadImageData(desc.images, loglevel=logging.WARNING)
+        r = results.Results1288(data.Data1288(imgs.data).data, pixel_area=None)
+        _ = (r.K, r.QE, r.sigma_d, r.u_e_sat, r.DSNU1288, r.PRNU1288, r.LE_min)
+        return time.perf_counter() - t0
+    finally:
+        if added:
+            delattr(np, name)
 
 
 def report(path: Path, rounds: int) -> None:
@@ -100,10 +134,17 @@ def report(path: Path, rounds: int) -> None:
           f"({len(d.temporal_points())} temporal points{stacks}), {n_images} images; "
           f"{rounds} round(s)")
     for stage, what in (("read", "read_descriptor"), ("load", "load every image"),
-                        ("stats", "pair_stats + stacks"), ("total", "total")):
-        times = [r[0][stage] for r in runs]
+                        ("stats", "pair_stats + stacks"), ("total", "total"),
+                        ("chiptwin", "read + evaluate"), ("emva1288", "emva1288 (baseline)")):
+        times = [r[0][stage] for r in runs if stage in r[0]]
+        if not times:
+            continue
         print(f"  {what:20s} min {min(times) * 1e3:9.2f} ms   median "
               f"{statistics.median(times) * 1e3:9.2f} ms")
+    if "emva1288" in runs[0][0]:
+        ratio = statistics.median(r[0]["chiptwin"] / r[0]["emva1288"] for r in runs)
+        print(f"  read + evaluate takes {ratio:.2f}x emva1288's time (median of per-round "
+              "ratios; chiptwin also computes every standard error from fourth moments)")
     load = statistics.median(r[0]["load"] for r in runs)
     print(f"  {n_images / load:.0f} images/s loaded ({load / n_images * 1e6:.0f} µs an image)")
 

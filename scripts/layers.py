@@ -35,6 +35,7 @@ SIDEWAYS: frozenset[tuple[str, str]] = frozenset({
     ("detection", "kinetics"),  # the phase-correcting caller predicts flowgrams by phasing
     ("chip", "dsp"),  # the chip model runs the DSP program's stages
     ("study", "fidelity"),  # a study point's auto keys are resolved with calibrations
+    ("study", "characterize"),  # a calibrate study's measured data set, replayed on the bench
     ("__main__", "cli"),
 })
 

@@ -78,6 +78,17 @@ REDUCED = {
 }
 
 
+def real_data(*parts: str) -> Path:
+    """A measured data set (EMVA 1288 images, flowgrams) under ``$CHIPTWIN_DATA``, by default the
+    ``shared/data/real`` folder beside the repository; the project does not carry them. Absent,
+    the test skips naming the path it looked for (docs/background/testing.md)."""
+    root = os.environ.get("CHIPTWIN_DATA") or ROOT.parent / "shared" / "data" / "real"
+    path = Path(root).joinpath(*parts)
+    if not path.exists():
+        pytest.skip(f"needs the measured data set {path} (set CHIPTWIN_DATA to its root)")
+    return path
+
+
 def in_ci() -> bool:
     """``CI=true`` (GitHub Actions, GitLab, most CI services set it)."""
     return os.environ.get("CI", "").strip().lower() in ("true", "1", "yes")

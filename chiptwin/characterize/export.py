@@ -54,7 +54,7 @@ def write_measured(m: Measurement, folder: str | Path, name: str) -> Path:
     Refused (:class:`ScenarioError`, nothing written) when the images need more than the
     format's 16 bits.
     """
-    from chiptwin.characterize.descriptor import write_descriptor
+    from chiptwin.characterize.descriptor_write import write_descriptor
 
     if m.tiles != 1:
         raise ValueError("write_measured needs single-frame images (single_frame_protocol)")

@@ -17,24 +17,21 @@ import pytest
 from PIL import Image
 
 from chiptwin.characterize import descriptor as dsc
+from chiptwin.characterize import descriptor_write
 from chiptwin.characterize.descriptor import (
     DATA_FILE,
     DescriptorError,
     load_image,
     read_descriptor,
     stack_images,
-    write_descriptor,
 )
+from chiptwin.characterize.descriptor_write import _write_png, write_descriptor
 from tests.characterize._emva import numpy_shim
-
-REAL = (Path(__file__).resolve().parents[2].parent / "shared" / "data" / "real" / "emva1288"
-        / "set001_ccd_12bit_crop128")
+from tests.conftest import real_data
 
 
 def _real() -> Path:
-    if not (REAL / DATA_FILE).is_file():
-        pytest.skip(f"needs {REAL}")
-    return REAL
+    return real_data("emva1288", "set001_ccd_12bit_crop128")
 
 
 def _emva_parse(path: Path):
@@ -486,7 +483,7 @@ def test_a_folder_that_is_not_a_data_set_is_left_alone(tmp_path):
 
 
 def test_a_write_that_fails_midway_leaves_nothing(tmp_path, monkeypatch):
-    real, calls = dsc._write_png, []
+    real, calls = _write_png, []
 
     def failing(path: Path, arr: np.ndarray) -> None:
         calls.append(path)
@@ -494,7 +491,7 @@ def test_a_write_that_fails_midway_leaves_nothing(tmp_path, monkeypatch):
             raise OSError("disk full")
         real(path, arr)
 
-    monkeypatch.setattr(dsc, "_write_png", failing)
+    monkeypatch.setattr(descriptor_write, "_write_png", failing)
     with pytest.raises(OSError, match="disk full"):
         write_descriptor(tmp_path / "set", bits=BITS, width=W, height=H,
                          steps=_small_steps(np.random.default_rng(8)))
