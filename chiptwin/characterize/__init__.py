@@ -19,6 +19,21 @@ measures a sensor::
   ``datasheet.md``, the standard's plots.
 * :mod:`~chiptwin.config.datasheet`: a datasheet (the same JSON layout) → ``[chip.pixel]`` and
   ``[chip.adc]`` values (``from_datasheet = "FILE.json"``).
+
+Measured data in (a real camera's EMVA 1288 data set, ``chiptwin characterize --measured DIR``)::
+
+    descriptor ──► measured ──────────► evaluation ──► datasheet ──► camera_twin ──► replay ──► overlay
+    (the format)   pair/stack stats      (the same)     (the same)    scenario TOML    the twin    measured vs
+                   of the images                                      ± its errors     through     twin, in σ
+                                                                                       its protocol
+
+* :mod:`~chiptwin.characterize.descriptor`, :mod:`~chiptwin.characterize.descriptor_write`: the
+  EMVA 1288 descriptor data set (``EMVA1288_Data.txt`` and PNG/TIFF images), read and written.
+* :mod:`~chiptwin.characterize.measured`: a data set as a ``Measurement`` and its datasheet.
+* :mod:`~chiptwin.characterize.camera_twin`: the camera's twin as a scenario, each value with
+  its standard error; :mod:`~chiptwin.characterize.replay`: a scenario read through a data set's
+  protocol; :mod:`~chiptwin.characterize.overlay`: the two laid over each other.
+* :mod:`~chiptwin.characterize.export`: the twin's own protocol written as a data set.
 """
 
 from __future__ import annotations
