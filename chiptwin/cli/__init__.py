@@ -12,7 +12,6 @@ command the same way, one line, everything a study stored kept, its workers gone
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import shutil
 import signal
@@ -24,7 +23,14 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from chiptwin import __version__
-from chiptwin._numba import announce_compiles
+from chiptwin.cli.characterize import CHARACTERIZE_HELP, add_characterize, characterize_command
+from chiptwin.cli.common import (
+    _check_json_path,
+    _scenario_path,
+    _shown,
+    _study_path,
+    _working,
+)
 from chiptwin.cli.progress import Progress as _Progress
 from chiptwin.cli.text import (
     WIDTH,
@@ -101,40 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
     d = _command(sub, "dsp-report", "fixed-point DSP vs float on a scenario's data")
     _scenario_args(d)
     d.add_argument("--json", help="also write the report as JSON to this file")
-    ch = _command(sub, "characterize", "EMVA 1288 datasheet of a scenario's chip, or of the "
-                  "twin a datasheet configures")
-    ch.add_argument("scenario", nargs="?", help="a TOML file, or the name of a bundled scenario "
-                    "(default with --from: pyro_1fmol)")
-    ch.add_argument("--from", dest="from_datasheet", metavar="FILE.json",
-                    help="configure the chip's pixel and ADC from this datasheet (a file, or "
-                    "the name of a bundled one) first")
-    ch.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                    help="override a scenario value (repeatable)")
-    ch.add_argument("--seed", type=int, help="replace scenario.seed")
-    ch.add_argument("--out", help="output folder (default: out/SCENARIO_NAME-emva1288, "
-                    "with --adc out/SCENARIO_NAME-adc1241)")
-    ch.add_argument("--adc", action="store_true", help="the ADC's own IEEE 1241 bench instead: "
-                    "every converter as built, driven at its input (adc1241.json)")
-    ch.add_argument("--adc-dnl-sigma", type=float, default=0.1, metavar="LSB",
-                    help="with --adc: the DNL's standard error asked (default 0.1 LSB)")
-    ch.add_argument("--adc-converters", type=int, default=256, metavar="N",
-                    help="with --adc: most converters measured, a grid over the array "
-                    "(default 256)")
-    ch.add_argument("--measured", metavar="DIR",
-                    help="a camera's EMVA 1288 data set instead of a scenario (a folder with "
-                         "EMVA1288_Data.txt and its images): the same datasheet from measured "
-                         "images")
-    ch.add_argument("--pixel-pitch-um", type=float, metavar="UM",
-                    help="with --measured: the camera's pixel pitch (a data set does not carry "
-                         "it), for the per-area figures and --write-scenario")
-    ch.add_argument("--write-scenario", metavar="OUT.toml",
-                    help="with --measured: write the camera's twin as a scenario, read it "
-                         "through the data set's protocol and lay its curves over the measured "
-                         "ones (overlay.png)")
-    ch.add_argument("--write-measured", metavar="DIR",
-                    help="with a SCENARIO: also write the twin's protocol as an EMVA 1288 data "
-                         "set (single-frame images, as the format has one image size)")
-    ch.add_argument("--quiet", action="store_true", help="no progress, no table")
+    add_characterize(_command(sub, "characterize", CHARACTERIZE_HELP))
     la = _command(sub, "ladder", "speed against error: every fidelity level of a scene "
                   "against the most faithful combination")
     _scenario_args(la)
@@ -242,27 +215,13 @@ def _commands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentPar
                 if isinstance(a, argparse._SubParsersAction))
 
 
-def _working(progress: _Progress | None):
-    """The context of a command's long work, which reports ``progress``: the first kernel numba
-    compiles in it is announced (:func:`chiptwin._numba.announce_compiles`), so a first run's
-    pause says what it is. Only around the work: a refused input keeps its one line."""
-    return contextlib.nullcontext() if progress is None else announce_compiles(_say_compiling)
-
-
-def _say_compiling() -> None:
-    """On a terminal the progress bar's line is cleared first (it is redrawn)."""
-    clear = "\r\033[K" if sys.stderr.isatty() else ""
-    print(f"{clear}  compiling numba kernels: their first use on this machine (10–30 s); "
-          "cached for later runs", file=sys.stderr, flush=True)
-
-
 def _dispatch(args: argparse.Namespace) -> int:
     if args.command == "list":
         return _list()
     if args.command == "study":
         return _study(args)
     if args.command == "characterize":
-        return _characterize(args)
+        return characterize_command(args)
     if args.command == "validate" and _is_study(args.scenario):
         return _validate_study(args.scenario, args.verbose)
     path = _scenario_path(args.scenario, studies_too=args.command == "validate")
@@ -323,125 +282,6 @@ def _dsp_report(scenario, json_path: str | None) -> int:
     return 0
 
 
-def _characterize(args: argparse.Namespace) -> int:
-    from chiptwin.characterize import characterize
-    from chiptwin.characterize.outputs import JSON_NAME, headline
-    from chiptwin.config.outputs import check_out_dir, output_lock
-
-    if args.measured is not None:
-        return _characterize_measured(args)
-    for flag in ("pixel_pitch_um", "write_scenario"):
-        if getattr(args, flag) is not None:
-            raise ScenarioError("chiptwin", "--" + flag.replace("_", "-"), getattr(args, flag),
-                                "is only for --measured DIR (a camera's data set)")
-    if args.scenario is None and args.from_datasheet is None:
-        raise ScenarioError("chiptwin", "characterize", "(nothing)",
-                            "needs a SCENARIO, --from FILE.json, or both (or --measured DIR)")
-    path = _scenario_path(args.scenario or "pyro_1fmol")
-    datasheet = args.from_datasheet
-    if datasheet:
-        from chiptwin.config.datasheet import bundled_datasheet
-        from chiptwin.config.load import load_with_datasheet
-
-        datasheet = bundled_datasheet(datasheet, bundled_scenarios_folder() / "datasheets")
-        scenario = load_with_datasheet(path, datasheet, args.set, args.seed)
-    else:
-        scenario = load_scenario(path, args.set, args.seed)
-    if args.adc:
-        return _characterize_adc(scenario, args)
-    out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}-emva1288",
-                        marker=JSON_NAME)  # before the measurement
-    protocol = None
-    if args.write_measured:
-        from chiptwin.characterize.export import single_frame_protocol
-        from chiptwin.config.outputs import check_out_dir as check
-
-        check(args.write_measured, marker="EMVA1288_Data.txt")
-        protocol = single_frame_protocol()
-    progress = None if args.quiet else _Progress("images")
-    with output_lock(out), _working(progress):
-        result = characterize(scenario, protocol, progress=progress, datasheet_in=datasheet,
-                              keep_images=bool(args.write_measured))
-        out = result.write(out)
-        if args.write_measured:
-            from chiptwin.characterize.export import write_measured
-
-            written = write_measured(result.datasheet.measurement, args.write_measured,
-                                     scenario.scenario.name)
-    if not args.quiet:
-        print(fit(headline(result.datasheet)))
-        print(f"  outputs in {_shown(out)}/ ({JSON_NAME}, datasheet.md, plots)")
-        if args.write_measured:
-            print(f"  the protocol as an EMVA 1288 data set in {_shown(written)}/")
-    return 0
-
-
-def _characterize_measured(args: argparse.Namespace) -> int:
-    """``characterize --measured DIR``: a camera's data set through the same evaluation."""
-    from chiptwin.characterize.measured import characterize_measured
-    from chiptwin.characterize.outputs import JSON_NAME, headline
-    from chiptwin.config.outputs import check_out_dir, output_lock
-
-    for flag in ("scenario", "from_datasheet", "write_measured", "seed"):
-        if getattr(args, flag) is not None or (flag == "scenario" and args.set):
-            raise ScenarioError("chiptwin", "--measured", args.measured,
-                                "reads a camera's data set: it takes no SCENARIO, --from, --set, "
-                                "--seed or --write-measured")
-    if args.adc:
-        raise ScenarioError("chiptwin", "--adc", True, "measures a scenario's converters, not "
-                            "a camera's data set: drop --measured or --adc")
-    folder = Path(args.measured)
-    out = check_out_dir(args.out or Path("out") / f"{folder.resolve().name}-emva1288",
-                        marker=JSON_NAME)
-    if args.write_scenario is not None and args.pixel_pitch_um is None:
-        raise ScenarioError("chiptwin", "--pixel-pitch-um", None,
-                            "is needed with --write-scenario: a data set gives photons per "
-                            "pixel, not the pixel's size")
-    progress = None if args.quiet else _Progress("images")
-    with output_lock(out), _working(progress):
-        result = characterize_measured(folder, args.pixel_pitch_um, progress=progress)
-        if args.write_scenario is not None:
-            from chiptwin.characterize.camera_twin import replay_twin
-
-            replay_twin(result, args.write_scenario)
-        out = result.write(out)
-    if not args.quiet:
-        print(fit(headline(result.datasheet)))
-        if args.write_scenario is not None:
-            print("  the twin through the data set's protocol, largest residual below "
-                  "saturation:")
-            print(fit([f"    {line}" for line in result.meta["twin"]["findings"]]))
-            print(f"  scenario written to {_shown(Path(args.write_scenario))}")
-        print(f"  outputs in {_shown(out)}/ ({JSON_NAME}, datasheet.md, plots)")
-    return 0
-
-
-def _characterize_adc(scenario, args: argparse.Namespace) -> int:
-    from chiptwin.characterize.adc1241.bench import BenchSettings, adc_bench
-    from chiptwin.characterize.adc1241.outputs import JSON_NAME, headline
-    from chiptwin.config.outputs import check_out_dir
-
-    try:
-        settings = BenchSettings(dnl_sigma_lsb=args.adc_dnl_sigma,
-                                 max_converters=args.adc_converters)
-    except ValueError as exc:
-        dnl = str(exc).startswith("dnl_sigma_lsb")
-        raise ScenarioError("chiptwin", "--adc-dnl-sigma" if dnl else "--adc-converters",
-                            args.adc_dnl_sigma if dnl else args.adc_converters,
-                            str(exc).split(": ", 1)[-1]) from None
-    out = check_out_dir(args.out or Path("out") / f"{scenario.scenario.name}-adc1241",
-                        marker=JSON_NAME)  # before the measurement
-    progress = None if args.quiet else _Progress("conversions")
-    with _working(progress):
-        bench = adc_bench(scenario, settings=settings, progress=progress)
-    out = bench.write(out)
-    if not args.quiet:
-        print(fit(headline(bench.to_json())))
-        print(f"  {bench.wall_time_s:.1f} s; outputs in {_shown(out)}/ ({JSON_NAME}, adc1241.npz, "
-              "adc1241.md, plots)")
-    return 0
-
-
 def _is_study(name: str) -> bool:
     path = resolve_study(name)
     if name in bundled_studies():
@@ -488,44 +328,6 @@ def _validate_study(name: str, verbose: bool = False) -> int:
         f"{ESTIMATE_FACTOR:g}× either way)",
         WIDTH, initial_indent="  ", subsequent_indent="    "))
     return 0
-
-
-def _scenario_path(name: str, studies_too: bool = False) -> Path:
-    """A scenario file as given, or a bundled scenario's; an unknown name is refused with the
-    closest bundled names (before the loader's "not a readable file")."""
-    path = resolve_scenario(name)
-    if not path.exists():
-        from chiptwin.cli.text import unknown_name
-
-        known = [*bundled_scenarios(), *(bundled_studies() if studies_too else ())]
-        raise _refusal(unknown_name(name, "scenario or study" if studies_too else "scenario",
-                                    known))
-    return path
-
-
-def _study_path(name: str) -> Path:
-    """A study file as given, or a bundled study's, as :func:`_scenario_path`."""
-    path = resolve_study(name)
-    if not path.exists():
-        from chiptwin.cli.text import unknown_name
-
-        raise _refusal(unknown_name(name, "study", bundled_studies()))
-    return path
-
-
-def _shown(path: Path) -> str:
-    """An output folder as the user would type it: relative when it is under this folder."""
-    try:
-        return str(Path(path).resolve().relative_to(Path.cwd().resolve()))
-    except ValueError:
-        return str(path)
-
-
-def _refusal(message: str) -> ScenarioError:
-    """A refusal of the command line itself (no file, no key to name): printed as it is."""
-    exc = ScenarioError("chiptwin", "(command line)", None, message)
-    exc.args = (message,)
-    return exc
 
 
 def _bundled_note(name: str, study: bool = False) -> str:
@@ -662,13 +464,6 @@ def _reference_levels(pins: list[str]) -> dict[str, str]:
                                 + ", ".join(f"{k}={v}" for k, lv in LEVELS.items() for v in lv))
         out[stage] = level
     return out
-
-
-def _check_json_path(json_path: str) -> None:
-    target = Path(json_path)
-    if target.is_dir() or not target.parent.is_dir():
-        raise ScenarioError("chiptwin", "--json", json_path,
-                            "must be a file path in an existing folder")
 
 
 def entry() -> None:
