@@ -29,6 +29,10 @@ from chiptwin.config import ScenarioError
 #: LSB in volts enters, through the capacitance that gives the measured gain). Unit: V.
 V_RANGE: tuple[float, float] = (0.0, 1.0)
 
+#: Bits of a frame-memory word of the camera's twin (the schema's default; a camera's 8-16-bit
+#: codes fit).
+WORD_BITS: int = 16
+
 #: Figures whose standard errors are propagated to the scenario's values.
 PROPAGATED = ("quantum_efficiency", "system_gain", "temporal_dark_noise_dn",
               "temporal_dark_noise", "saturation_capacity", "dark_current", "prnu", "dsnu",
@@ -74,6 +78,10 @@ def base_raw(d: Datasheet, name: str) -> dict[str, Any]:
                  "adc": {"bits": cam.adc_bits, "v_min_V": V_RANGE[0], "v_max_V": V_RANGE[1],
                          "range_below_full_well_ok": True},
                  "dsp": {"cms_samples": 1, "n_dark_frames": 1, "average_frames": 1},
+                 # the DSP's block of one frame (reset and signal words), the dark reference
+                 # and what the default program holds: 16-bit words, 8 an image (choice: the
+                 # loader's rule asks for 3 on the default program)
+                 "memory": {"capacity_bits": 8 * WORD_BITS * cam.rows * cam.cols},
                  "timing": {"t_int_s": t_max, "frame_period_s": 2.0 * t_max}},
         "run": {"duration_s": 4.0 * t_max},
     }
