@@ -422,8 +422,8 @@ def as_built_quadrature(s: Scenario) -> Quadrature | None:
     series: ccd_two_wells with a 128-LSB comparator, its pedestal at code 1,311); a smooth INL bow
     without DNL stays on the series where its curvature allows (``SMOOTH_INL_TOL``); its nodes by
     the kTC's ratio to ``u`` (:func:`~chiptwin.pixel.expected_adc.node_count`)."""
-    from chiptwin.pixel.converter import AsBuilt, bow_curvature
     from chiptwin.pixel.expected_adc import SERIES_MIN_WHITE_LSB, SMOOTH_INL_TOL, node_count
+    from chiptwin.pixel.ramp import AsBuilt, bow_curvature
     from chiptwin.pixel.sensor import ktc_noise_e
 
     a, p = s.chip.adc, s.chip.pixel

@@ -572,7 +572,7 @@ def _converter(s: Scenario) -> None:
         if spec.inl_shape != "table" and spec.dnl_rms_lsb == 0.0:
             # a smooth bow alone: its one check (no reversal) on the end points' span, not on
             # a table of 2^bits levels (1.4 s at 20 bits, every time a study is loaded)
-            pixel.converter.check_bow(spec.inl_max_lsb, spec.inl_shape, adc.bits)
+            pixel.ramp.check_bow(spec.inl_max_lsb, spec.inl_shape, adc.bits)
             return
         # the shapes' checks (bow, memory) on one converter per ramp: no map is drawn here
         pixel.build_converter(np.random.default_rng(0), (s.chip.rows, s.chip.cols),

@@ -40,15 +40,10 @@ from chiptwin.pixel.adc import (
     to_volts,
 )
 from chiptwin.pixel.chain import sensor_chain
-from chiptwin.pixel.converter import (
-    AsBuilt,
-    Converter,
-    build_converter,
-    check_transition_table,
-    load_transition_table,
-)
+from chiptwin.pixel.converter import Converter, build_converter
 from chiptwin.pixel.expected_adc import cms_moments
 from chiptwin.pixel.frames import CHUNK_PIXELS, binned_codes, chunk_streams, code_dtype
+from chiptwin.pixel.ramp import AsBuilt, check_transition_table, load_transition_table
 from chiptwin.pixel.sensor import (
     clipped_poisson_moments,
     conversion_gain_uV_per_e,

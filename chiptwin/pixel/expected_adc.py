@@ -68,7 +68,8 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from chiptwin.pixel.converter import Converter, bow_curvature, bow_inverse
+from chiptwin.pixel.converter import Converter
+from chiptwin.pixel.ramp import bow_curvature, bow_inverse
 
 #: The quadrature over a side's shared component ``y ~ N(μ, σ²)``: the trapezoid rule on a
 #: uniform grid of ``z = (y − μ)/σ`` over ±:data:`QUAD_Z`. The integrands (a code's variance or

@@ -25,7 +25,7 @@ from chiptwin.pixel import (
     quantization_var_of_mean,
     sensor_chain,
 )
-from chiptwin.pixel.converter import MAX_TABLE_BYTES
+from chiptwin.pixel.ramp import MAX_TABLE_BYTES
 
 BITS = 10
 TOP = 2**BITS - 1
@@ -615,7 +615,7 @@ def test_table_window_bounds_are_searchsorted():
     and codes narrower than a LUT cell (several levels in one cell), at inputs on the levels,
     between them and far past both ends."""
     from chiptwin.pixel import _kernels
-    from chiptwin.pixel.converter import _padded, _search_lut
+    from chiptwin.pixel.ramp import _padded, _search_lut
 
     rng = np.random.default_rng(11)
     tables = [_random_table(rng, BITS) for _ in range(3)]

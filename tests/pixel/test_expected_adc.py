@@ -241,9 +241,9 @@ def test_bow_inverse_maps_the_bowed_transitions_onto_the_ideal_ones():
                 np.random.default_rng(0), (1, 1), bits=bits, v_min_V=0.0, v_max_V=1.0,
                 as_built=pixel.AsBuilt(inl_max_lsb=2.0, inl_shape=shape))
             levels = conv.levels[0]
-            phi, d = pixel.converter.bow_inverse(levels, 2.0, shape, bits)
+            phi, d = pixel.ramp.bow_inverse(levels, 2.0, shape, bits)
             assert np.max(np.abs(phi - (np.arange(levels.size) + 0.5))) < 1e-9
             h = 1e-3
-            num = (pixel.converter.bow_inverse(levels + h, 2.0, shape, bits)[0]
-                   - pixel.converter.bow_inverse(levels - h, 2.0, shape, bits)[0]) / (2 * h)
+            num = (pixel.ramp.bow_inverse(levels + h, 2.0, shape, bits)[0]
+                   - pixel.ramp.bow_inverse(levels - h, 2.0, shape, bits)[0]) / (2 * h)
             assert np.max(np.abs(d - num)) < 1e-7  # the difference's rounding: 2e-16·x/h
