@@ -78,6 +78,13 @@ REDUCED = {
 }
 
 
+#: Where measured data sets are looked for: ``$CHIPTWIN_DATA``, else a ``shared/data/real`` folder
+#: beside the repository when there is one (set for the whole session, so a bundled calibrate
+#: study's ``${CHIPTWIN_DATA}`` resolves in the tests and the commands they start).
+if not os.environ.get("CHIPTWIN_DATA") and (ROOT.parent / "shared" / "data" / "real").is_dir():
+    os.environ["CHIPTWIN_DATA"] = str(ROOT.parent / "shared" / "data" / "real")
+
+
 def real_data(*parts: str) -> Path:
     """A measured data set (EMVA 1288 images, flowgrams) under ``$CHIPTWIN_DATA``, by default the
     ``shared/data/real`` folder beside the repository; the project does not carry them. Absent,

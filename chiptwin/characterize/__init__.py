@@ -22,10 +22,12 @@ measures a sensor::
 
 Measured data in (a real camera's EMVA 1288 data set, ``chiptwin characterize --measured DIR``)::
 
-    descriptor ──► measured ──────────► evaluation ──► datasheet ──► camera_twin ──► replay ──► overlay
-    (the format)   pair/stack stats      (the same)     (the same)    scenario TOML    the twin    measured vs
-                   of the images                                      ± its errors     through     twin, in σ
-                                                                                       its protocol
+    descriptor ──► measured ─────────► evaluation ──► datasheet
+    (the format)   pair/stack stats     (the same)     (the same)
+                                                            │
+    overlay ◄───────── replay ◄──────────── camera_twin ◄───┘
+    measured vs twin   the twin through     scenario TOML,
+    in σ               the set's protocol   values ± their errors
 
 * :mod:`~chiptwin.characterize.descriptor`, :mod:`~chiptwin.characterize.descriptor_write`: the
   EMVA 1288 descriptor data set (``EMVA1288_Data.txt`` and PNG/TIFF images), read and written.

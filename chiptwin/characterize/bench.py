@@ -36,6 +36,10 @@ WAVELENGTH_NM: float = 560.0
 
 Progress = Callable[[int, int], None]
 
+#: The Gaussian count's lowest mean when a read asks for smooth draws: every count (the sampler
+#: needs a positive bound). Unit: e⁻.
+SMOOTH_MIN_MEAN_E: float = 1e-9
+
 
 def photon_energy_J(wavelength_nm: float = WAVELENGTH_NM) -> float:
     """``h·c/λ``. Unit: J per photon (3.55e-19 J at 560 nm)."""
@@ -155,7 +159,8 @@ class Bench:
 
     def read(self, rng: np.random.Generator, sensor: SensorModel,
              frames: Iterable[NDArray[np.float64]], n_frames: int,
-             progress: Progress | None = None) -> Iterator[tuple[NDArray[np.float64], float]]:
+             progress: Progress | None = None, shot_noise: str = "poisson"
+             ) -> Iterator[tuple[NDArray[np.float64], float]]:
         """Read frames of expected charge: the CMS image (DN) and the mean reset code (DN).
 
         Parameters
@@ -168,6 +173,11 @@ class Bench:
             Expected charge per pixel of each frame (:meth:`expected_e`), all one shape.
         n_frames : int
             How many (for progress).
+        shot_noise : {"poisson", "gaussian"}
+            ``"gaussian"``: every count drawn as ``rint(λ + √λ·z)``, one normal a count whatever
+            its mean, so the draws move continuously with the light (a fit's common random
+            numbers); the Poisson mean and variance, +1/12 e⁻² of rounding. Default: exact
+            Poisson below :data:`chiptwin.pixel.chain.GAUSSIAN_MIN_MEAN_E`.
         """
         a = self.scenario.chip.adc
         frames = iter(frames)
@@ -181,7 +191,8 @@ class Bench:
             full_well_e=sensor.full_well_e, read_noise_e=sensor.read_noise_e,
             conversion_gain_uV_per_e=sensor.conversion_gain_uV_per_e, ktc_e=sensor.ktc_e,
             true_cds=sensor.true_cds, n_samples=sensor.cms_samples, read_reset=True,
-            pedestal_V=sensor.pedestal_V, converter=conv)
+            pedestal_V=sensor.pedestal_V, converter=conv, shot_noise=shot_noise,
+            **({"gaussian_min_mean_e": SMOOTH_MIN_MEAN_E} if shot_noise == "gaussian" else {}))
         top = 2**a.bits - 1
         for done, (reset, signal) in enumerate(chain, start=1):
             self.clipped += int(np.count_nonzero((reset == 0) | (reset == top)))

@@ -172,7 +172,10 @@ def toml_text(raw: dict[str, Any], values: dict[str, tuple[Any, float | None, st
              "# the camera's shape and the protocol's longest exposure. The photodiode fills "
              "the pixel",
              "# (EMVA's η is per pixel area), one conversion per CDS, the black level as the "
-             "pedestal.", ""]
+             "pedestal.",
+             "# Emitter law: none enters: the light is given at the sensor plane (assay kind "
+             "\"flux\"), as the",
+             "# camera's bench lit it.", ""]
     unresolved = [k for k in ("prnu", "dsnu") if d.figures[k].value is None
                   or d.figures[k].note.startswith("not significant")]
     for section, table in _tables(raw):

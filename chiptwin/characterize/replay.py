@@ -51,7 +51,7 @@ class ReplayPlan:
 
 
 def replay(s: Scenario, plan: ReplayPlan, rng: np.random.Generator, spatial: bool = True,
-           max_pixels: int | None = None) -> Measurement:
+           max_pixels: int | None = None, shot_noise: str = "poisson") -> Measurement:
     """Read the scenario's chip through a data set's protocol.
 
     Parameters
@@ -67,11 +67,16 @@ def replay(s: Scenario, plan: ReplayPlan, rng: np.random.Generator, spatial: boo
     max_pixels : int, optional
         Read only the chip's first ``max_pixels`` pixels in every temporal image (a fit's cheaper
         reading: the pair statistics' errors grow as 1/√n and are reported with them).
+    shot_noise : {"poisson", "gaussian"}
+        ``"gaussian"`` draws every count as ``rint(λ + √λ·z)``: the images move continuously with
+        the scenario's values, as a fit's common random numbers need (a Poisson sampler takes
+        another number of uniforms when its mean moves, and every later draw shifts).
     """
     bench = Bench(s)
     n = bench.camera.n_pixels if max_pixels is None else min(max_pixels, bench.camera.n_pixels)
-    temporal, reset = _temporal(bench, plan, rng, n)
-    sp = _spatial(bench, plan, rng, reset) if spatial and plan.spatial is not None else None
+    temporal, reset = _temporal(bench, plan, rng, n, shot_noise)
+    sp = (_spatial(bench, plan, rng, reset, shot_noise)
+          if spatial and plan.spatial is not None else None)
     return Measurement(camera=bench.camera, protocol=None, tiles=1, temporal=temporal,
                        spatial=sp, temperature=None, clipped_samples=bench.clipped)
 
@@ -81,8 +86,8 @@ def _photons_per_diode(bench: Bench, mu_p: float) -> float:
     return mu_p * bench.camera.fill_factor
 
 
-def _temporal(bench: Bench, plan: ReplayPlan, rng: np.random.Generator, n: int
-              ) -> tuple[TemporalSeries, float]:
+def _temporal(bench: Bench, plan: ReplayPlan, rng: np.random.Generator, n: int,
+              shot_noise: str) -> tuple[TemporalSeries, float]:
     sensor = bench.sensor
 
     def frames() -> Iterator[NDArray[np.float64]]:
@@ -91,7 +96,7 @@ def _temporal(bench: Bench, plan: ReplayPlan, rng: np.random.Generator, n: int
             dark = bench.expected_e(sensor, 0.0, t, 1)[:n]
             yield from (bright, bright, dark, dark)
 
-    images = bench.read(rng, sensor, frames(), 4 * len(plan.t_exp_s))
+    images = bench.read(rng, sensor, frames(), 4 * len(plan.t_exp_s), shot_noise=shot_noise)
     points = [[next(images) for _ in range(4)] for _ in plan.t_exp_s]
     resets = [r for point in points for _, r in point[2:]]
     reset = float(np.mean(resets))
@@ -102,14 +107,15 @@ def _temporal(bench: Bench, plan: ReplayPlan, rng: np.random.Generator, n: int
                           float(np.std(resets, ddof=1) / np.sqrt(len(resets)))), reset
 
 
-def _spatial(bench: Bench, plan: ReplayPlan, rng: np.random.Generator, reset: float
-             ) -> SpatialSeries:
+def _spatial(bench: Bench, plan: ReplayPlan, rng: np.random.Generator, reset: float,
+             shot_noise: str) -> SpatialSeries:
     t, mu_p, n = plan.spatial
     sensor, cam = bench.sensor, bench.camera
     lit = bench.expected_e(sensor, _photons_per_diode(bench, mu_p), t, 1)
     dark = bench.expected_e(sensor, 0.0, t, 1)
     stacks = (StackAccumulator(), StackAccumulator())
-    for i, (img, _) in enumerate(bench.read(rng, sensor, iter([lit] * n + [dark] * n), 2 * n)):
+    frames = iter([lit] * n + [dark] * n)
+    for i, (img, _) in enumerate(bench.read(rng, sensor, frames, 2 * n, shot_noise=shot_noise)):
         stacks[i // n].add(img.reshape(cam.rows, cam.cols) + reset)
     (bm, bv), (dm, dv) = stacks[0].result(), stacks[1].result()
     return SpatialSeries(t, mu_p, n, bm, bv, dm, dv)

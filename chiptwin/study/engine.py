@@ -89,6 +89,14 @@ def run_study(study: Study | str | Path, workers: int | None = None,
         from chiptwin.config.catalog import resolve_scenario, resolve_study
 
         study = load_study(resolve_study(str(study)), resolve_scenario)
+    if study.kind == "calibrate":  # a fit, not a grid of rows (chiptwin.study.calibrate)
+        from chiptwin.study.calibrate import run_calibrate
+
+        table, summary = run_calibrate(study, workers, scheduler, db, fresh, progress,
+                                       announce, in_flight=in_flight,
+                                       scheduler_file=scheduler_file,
+                                       worker_timeout_s=worker_timeout_s)
+        return StudyResult(study, table, summary["answer"], summary)
     plan = Plan(study)  # validates every point before anything runs
     # a bad scheduler fails before the store
     executor = make_executor(workers, scheduler, in_flight, scheduler_file, worker_timeout_s)
@@ -125,10 +133,19 @@ def estimate_s(plan: Plan) -> tuple[float, int]:
     from chiptwin.config.cost import row_seconds
 
     study = plan.study
+    if study.calibration is not None:  # a calibration: one candidate's seconds, the most
+        from chiptwin.study.calibrate_eval import candidate_seconds
+
+        per = candidate_seconds(study)
+        if per is not None:
+            return per, study.calibration.max_evaluations
     seconds = [row_seconds(sc, 1 if _scene_per_row(sc) else study.replicates)
                for sc in plan.scenarios.values()]
     per_row = sum(seconds) / len(seconds) if seconds else 0.0
-    return per_row, (len(plan.points) + len(plan.references)) * study.replicates
+    rows = (len(plan.points) + len(plan.references)) * study.replicates
+    if study.calibration is not None:  # the runs of one candidate, times the most candidates
+        rows *= study.calibration.max_evaluations
+    return per_row, rows
 
 
 def _scene_per_row(s) -> bool:

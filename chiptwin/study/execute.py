@@ -2,7 +2,8 @@
 
 Every executor takes tasks, each a list of :class:`~chiptwin.study.rows.RowTask` (consecutive
 rows, a point's replicates together: :func:`batches`), and yields each task's finished rows as the
-task completes, in any order; a row's numbers depend only on its row task, so the three give the
+task completes, in any order (a calibration sends its candidates the same way, with its own task
+function: ``run(tasks, fn)``); a row's numbers depend only on its row task, so the three give the
 same table, however rows are batched. At most ``in_flight`` tasks are out at once (default
 :data:`IN_FLIGHT_PER_WORKER` per worker), so the client's memory does not grow with the study's
 rows and an interrupted study loses at most those tasks. The pool uses ``spawn`` (numba and
@@ -26,7 +27,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
@@ -40,6 +41,10 @@ from chiptwin.config.cost import (
 )
 from chiptwin.study.rows import RowTask, run_rows
 
+#: What a task runs: a module-level function (picklable) of the task's items, returning one
+#: record per item: :func:`~chiptwin.study.rows.run_rows` (a budget study's rows, the default) or
+#: :func:`~chiptwin.study.calibrate_eval.run_evaluations` (a calibration's candidates).
+TaskFunction = Callable[[list[Any]], list[dict[str, Any]]]
 #: Seconds between two looks of a worker's watchdog at its parent's pid.
 WATCHDOG_PERIOD_S = 0.5
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
@@ -100,9 +105,10 @@ class SerialExecutor:
     name = "serial"
     workers = 1
 
-    def run(self, tasks: Iterable[list[RowTask]]) -> Iterator[list[dict[str, Any]]]:
+    def run(self, tasks: Iterable[list[Any]], fn: TaskFunction = run_rows
+            ) -> Iterator[list[dict[str, Any]]]:
         for task in tasks:
-            yield run_rows(task)
+            yield fn(task)
 
     def close(self) -> None:
         pass
@@ -123,7 +129,8 @@ class PoolExecutor:
         self.pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
                                         initializer=die_with_parent, initargs=(os.getpid(),))
 
-    def run(self, tasks: Iterable[list[RowTask]]) -> Iterator[list[dict[str, Any]]]:
+    def run(self, tasks: Iterable[list[Any]], fn: TaskFunction = run_rows
+            ) -> Iterator[list[dict[str, Any]]]:
         # Tasks still in flight when this stops are cancelled by close() and abort(), through
         # shutdown(cancel_futures=True) in the pool's manager thread. Cancelled from this thread,
         # a queued task raced the manager marking it broken once abort() had terminated the
@@ -136,7 +143,7 @@ class PoolExecutor:
                 task = next(pending, None)
                 if task is None:
                     break
-                running.add(self.pool.submit(run_rows, task))
+                running.add(self.pool.submit(fn, task))
             if not running:
                 return
             done, running = wait(running, return_when=FIRST_COMPLETED)
@@ -203,7 +210,8 @@ class DaskExecutor:
         self.in_flight = in_flight or IN_FLIGHT_PER_WORKER * self.workers
         self.futures: set = set()
 
-    def run(self, tasks: Iterable[list[RowTask]]) -> Iterator[list[dict[str, Any]]]:
+    def run(self, tasks: Iterable[list[Any]], fn: TaskFunction = run_rows
+            ) -> Iterator[list[dict[str, Any]]]:
         from distributed import as_completed
 
         pending = iter(tasks)
@@ -214,7 +222,7 @@ class DaskExecutor:
                     task = next(pending, None)
                     if task is None:
                         break
-                    future = self.client.submit(run_rows, task, pure=False)
+                    future = self.client.submit(fn, task, pure=False)
                     self.futures.add(future)
                     running.add(future)
                 if not self.futures:

@@ -10,27 +10,24 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from chiptwin.study.engine import StudyResult
+from chiptwin.study.files import write_atomic
 from chiptwin.study.metrics import CATALOGUE
 from chiptwin.study.tornado import sensitivity_markdown, tornado_plot
 from chiptwin.twin.figures import save_figure as _save
 
 
-def write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
-
-
 def write_study_outputs(result: StudyResult, out: Path) -> None:
     """Every output of a finished study into ``out`` (which holds its results.sqlite)."""
+    if result.summary.get("kind") == "calibrate":
+        from chiptwin.study.calibrate_outputs import write_calibrate_outputs
+
+        return write_calibrate_outputs(result, out)
     write_atomic(out / "results.csv", results_csv(result))
     plots = make_plots(result.summary, out)
     if "sensitivity" in result.summary:
@@ -63,6 +60,10 @@ def results_csv(result: StudyResult) -> str:
 
 def answer_lines(summary: dict[str, Any]) -> list[str]:
     """The answer, one line per combination of the given axes (what the CLI prints)."""
+    if summary.get("kind") == "calibrate":
+        from chiptwin.study.calibrate_outputs import answer_lines as calibrate_lines
+
+        return calibrate_lines(summary)
     lines = []
     at_reference = _reference_values(summary)
     for a in summary["answer"]:

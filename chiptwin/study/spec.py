@@ -279,10 +279,8 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
     if not isinstance(st, dict):
         err.fail("[study]", st if st is not None else dataclasses.MISSING, "section is required")
     if st.get("kind") == "calibrate":  # its own keys and checks
-        from chiptwin.study.calibrate_spec import calibrate_study
-
-        return calibrate_study(err, st, text if text is not None else json.dumps(raw), folder,
-                               resolve_scenario)
+        return _calibration_study(err, st, text if text is not None else json.dumps(raw),
+                                  folder, resolve_scenario)
     for key in st:
         if key not in _STUDY_KEYS:
             err.fail(f"study.{key}", st[key], unknown(key, _STUDY_KEYS))
@@ -325,6 +323,31 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
         study = _with_design(err, study)
     _check_whole(err, study)
     return study
+
+
+def _calibration_study(err: Errors, st: dict, text: str, folder: Path, resolve) -> Study:
+    """A study of ``kind = "calibrate"``: its keys read by
+    :func:`chiptwin.study.calibrate_spec.read_calibration`; a table target's x values are its
+    one axis (every point's scenario is checked as a budget study's are)."""
+    from chiptwin.study.calibrate_spec import read_calibration
+
+    name = err.string(st, "name", r"[A-Za-z0-9_.-]+", "letters, digits, '_', '-', '.' "
+                      "(it names the output folder)")
+    scen_path = scenario_path_of(err, st, folder, resolve)
+    base_raw = read_toml(scen_path)
+    datasheet_text = pin_datasheet(base_raw, scen_path)
+    overrides = inline_table(err, st, "set")
+    for k, v in overrides.items():
+        check_key(err, "study.set", k, base_raw)
+        put_key(base_raw, k, v, err.source)
+    seed = err.integer(st, "seed", 0, 2**63 - 1, "the root of np.random.SeedSequence")
+    cal = read_calibration(err, st, base_raw, str(scen_path), folder)
+    return Study(name=name, source=err.source, text=text, scenario_path=str(scen_path),
+                 base_raw=base_raw, seed=seed, replicates=cal.replicates,
+                 axes=tuple(Axis(k, v) for k, v in cal.axes),
+                 metrics=cal.metrics, overrides=overrides, search=cal.method,
+                 description=err.text(st, "description"), datasheet_text=datasheet_text,
+                 kind="calibrate", calibration=cal)
 
 
 def _check_whole(err: Errors, study: Study) -> None:

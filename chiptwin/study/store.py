@@ -8,6 +8,13 @@ Tables:
 - ``runs``: one row per finished run: ``point`` (the point's hash), ``kind`` (``point`` or
   ``reference``), ``replicate``, ``seed``, ``params`` JSON, ``metrics`` JSON, ``status``
   (``ok``/``invalid``/``error``), ``message``, ``wall_s``. ``(point, replicate)`` is the key.
+- ``evaluations`` (a calibration): one row per candidate simulated: ``target`` (the measured
+  data's hash), ``candidate`` (the fitted keys' exact values, JSON), ``status``, ``objective``
+  (χ² of the unscaled residuals, NULL when not ok), ``residuals``, ``sim``, ``sim_se`` (JSON
+  lists), ``message``, ``wall_s``. ``(target, candidate)`` is the key: the optimiser is
+  deterministic (its own seed, common random numbers), so a rerun asks for the same candidates
+  and takes each stored one instead of simulating it.
+- ``target`` (a calibration): one row: the measured data's path and hash.
 
 The rows of one executor task (a few seconds of rows) are committed together as soon as the task
 arrives, in one transaction: a killed study (Ctrl-C, ``kill -9``) keeps every finished task's rows
@@ -40,6 +47,14 @@ CREATE TABLE IF NOT EXISTS runs (
         CHECK (status IN ('ok', 'invalid', 'error')),
     message TEXT NOT NULL, wall_s REAL NOT NULL,
     PRIMARY KEY (point, replicate));
+CREATE TABLE IF NOT EXISTS evaluations (
+    target TEXT NOT NULL, candidate TEXT NOT NULL, status TEXT NOT NULL
+        CHECK (status IN ('ok', 'invalid', 'error')),
+    objective REAL, residuals TEXT, sim TEXT, sim_se TEXT, message TEXT NOT NULL,
+    wall_s REAL NOT NULL,
+    PRIMARY KEY (target, candidate));
+CREATE TABLE IF NOT EXISTS target (
+    id INTEGER PRIMARY KEY CHECK (id = 1), path TEXT NOT NULL, hash TEXT NOT NULL);
 """
 
 
@@ -62,15 +77,22 @@ class Store:
         row = self.db.execute("SELECT text, hash, base_scenario, datasheet, chiptwin_version "
                               "FROM study").fetchone()
         base = json.dumps(study.base_raw, sort_keys=True)
+        target = getattr(getattr(study, "calibration", None), "target", None)
         if row is None:
             self.db.execute("INSERT INTO study VALUES (1, ?, ?, ?, ?, ?, ?, ?)",
                             (study.name, study.text, study.hash, base, study.datasheet_text,
                              __version__, time.time()))
+            if target is not None:
+                self.db.execute("INSERT INTO target VALUES (1, ?, ?)", (target.path, target.hash))
             return
         if row[1] != study.hash:
             change = describe_change(row[0], row[2], study.text, base)
             if row[3] != study.datasheet_text:
                 change = "the scenario's EMVA 1288 datasheet (chip.pixel.from_datasheet)"
+            stored = self.db.execute("SELECT path, hash FROM target").fetchone()
+            if target is not None and stored is not None and stored[1] != target.hash:
+                change = (f"the measured data of study.target ({target.path}: its files "
+                          f"changed, hash {stored[1]} → {target.hash})")
             raise ScenarioError(study.source, "(resume)", self.path,
                                 "this folder holds another version of the study: " + change
                                 + "; use --fresh to start over, or another --out")
@@ -113,8 +135,44 @@ class Store:
             out.append(row)
         return out
 
+    def add_evaluations(self, target: str, records: list[dict[str, Any]]) -> None:
+        """Store evaluated candidates (one task's) in one transaction."""
+        def js(v: Any) -> str | None:
+            return None if v is None else json.dumps(v)
+
+        values = [(target, candidate_key(r["values"]), r["status"], r.get("objective"),
+                   js(r.get("residuals")), js(r["sim"]), js(r["sim_se"]), r["message"],
+                   r["wall_s"]) for r in records]
+        self.db.execute("BEGIN")
+        try:
+            self.db.executemany("INSERT OR IGNORE INTO evaluations VALUES "
+                                "(?, ?, ?, ?, ?, ?, ?, ?, ?)", values)
+        except BaseException:
+            self.db.execute("ROLLBACK")
+            raise
+        self.db.execute("COMMIT")
+
+    def evaluations(self, target: str) -> dict[str, dict[str, Any]]:
+        """Every stored evaluation of ``target``, by :func:`candidate_key`."""
+        cur = self.db.execute("SELECT candidate, status, objective, residuals, sim, sim_se, "
+                              "message, wall_s FROM evaluations WHERE target = ?", (target,))
+        out = {}
+        for key, status, objective, res, sim, sim_se, message, wall_s in cur:
+            out[key] = {"values": json.loads(key), "status": status, "objective": objective,
+                        "residuals": None if res is None else json.loads(res),
+                        "sim": None if sim is None else json.loads(sim),
+                        "sim_se": None if sim_se is None else json.loads(sim_se),
+                        "message": message, "wall_s": wall_s}
+        return out
+
     def close(self) -> None:
         self.db.close()
+
+
+def candidate_key(values: list | tuple) -> str:
+    """A candidate's identity: its values, exactly (JSON keeps a float's 17 digits)."""
+    return json.dumps([v if isinstance(v, int) and not isinstance(v, bool) else float(v)
+                       for v in values])
 
 
 def describe_change(old_text: str, old_base: str, new_text: str, new_base: str) -> str:

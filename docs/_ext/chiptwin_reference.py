@@ -281,6 +281,21 @@ def study_markdown() -> str:
     out += ["## `[[study.assumption]]` (kind = \"sensitivity\")\n"]
     for k, v in ASSUMPTION_KEYS.items():
         out += [f"`{k}`", f": {_text(v)}", ""]
+    from chiptwin.study.calibrate_spec import CALIBRATE_KEYS, PARAMETER_KEYS, TARGET_KEYS
+
+    out += ["## `kind = \"calibrate\"`: fit scenario keys to measured data\n",
+            "A calibrate study's `[study]` takes these keys (not `axis`, `metric`, "
+            "`requirement`): the keys fitted, the measured target and the objective "
+            "([calibrate](../howto/calibrate.md)).\n"]
+    for k, v in CALIBRATE_KEYS.items():
+        out += [f"`{k}`", f": {_text(v)}", ""]
+    out += ["### `[[study.parameter]]`\n"]
+    for k, v in PARAMETER_KEYS.items():
+        out += [f"`{k}`", f": {_text(v)}", ""]
+    for kind, keys in TARGET_KEYS.items():
+        out += [f"### `[study.target]` of kind `{kind}`\n"]
+        for k, v in keys.items():
+            out += [f"`{k}`", f": {_text(v)}", ""]
     out += ["## Metrics\n",
             "`[[study.metric]] name = ...` takes one of these. Rates are pooled over "
             "replicates with Clopper–Pearson intervals at Korn & Graubard's effective "
