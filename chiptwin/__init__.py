@@ -26,6 +26,8 @@ Start here::
     result = ct.run("pyro_1fmol", seed=1)          # a bundled name, or a TOML file
     study = ct.run_study("adc_bits_pyro", workers=2)
     sheet = ct.characterize("pyro_1fmol")          # EMVA 1288 datasheet of the chip
+    ds = ct.open_run("out/pyro_1fmol")             # a run's folder as a labelled xarray Dataset
+    table = ct.open_study("out/adc_bits_pyro")     # a study's rows over its axes and replicates
 
 or the ``chiptwin`` command. The names below are loaded on first use, so ``import chiptwin``
 stays light and the stage packages never import the tools above them.
@@ -70,6 +72,8 @@ _API: dict[str, str] = {
     "Scenario": "chiptwin.config.schema",
     "ScenarioError": "chiptwin.config.fields",
     "Result": "chiptwin.twin.runner",
+    "open_run": "chiptwin.report.dataset",
+    "open_study": "chiptwin.report.study_dataset",
 }
 
 

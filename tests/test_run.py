@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import tomllib
 from dataclasses import replace
 
 import numpy as np
@@ -14,6 +15,7 @@ from chiptwin import pixel
 from chiptwin.cli import main
 from chiptwin.config import ScenarioError, load_scenario
 from chiptwin.fidelity import run
+from chiptwin.report import open_run
 from chiptwin.twin.runner import chip_sensor, prepare, run_prepared
 from tests.conftest import NO_TOP, PAPER_CHIP, REDUCED, SCENARIOS
 
@@ -47,15 +49,18 @@ def test_cli_run_writes_every_output(small_toml, tmp_path, capsys):
     out = tmp_path / "result"
     assert main(["run", str(small_toml), "--out", str(out), "--set", "chip.adc.bits=12"]) == 0
     names = {p.name for p in out.iterdir()}
-    assert {"summary.json", "arrays.npz", "report.md", "light_curve.png", "frame.png",
+    assert {"summary.json", "run.nc", "report.md", "light_curve.png", "frame.png",
             "pyrogram.png", "memory.png"} <= names
+    assert "chip.vcd" not in names and "arrays.npz" not in names  # --vcd asks for the waveform
     summary = json.loads((out / "summary.json").read_text())
     assert summary["chip"]["adc_bits"] == 12 and summary["scenario"] == "small"
     for key in ("scenario", "seed", "chiptwin_version", "fidelity", "wall_time_s", "stage_time_s",
                 "sites", "true_sequence", "called_sequence", "flows", "chip"):
         assert key in summary
-    with np.load(out / "arrays.npz") as arrays:
-        assert arrays["trace_t_ns"].size == len(arrays["trace_block"]) > 0
+    with open_run(out) as ds:
+        assert ds["trace_t_ns"].size == ds["trace_block"].size > 0
+        scenario = tomllib.loads(ds.attrs["scenario_toml"])  # the --set in the scenario
+        assert ds.attrs["seed"] == summary["seed"] and scenario["chip"]["adc"]["bits"] == 12
     assert "called sequence" in capsys.readouterr().out
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".result.")]
 
@@ -224,7 +229,8 @@ def test_pixel_frames_are_the_per_frame_functions(small_toml):
 @pytest.mark.parametrize("name", sorted(p.stem for p in SCENARIOS.glob("*.toml")))
 def test_every_bundled_scenario_writes_its_outputs(name, tmp_path):
     """Each bundled scenario (made small, :data:`tests.conftest.REDUCED`) runs and writes its
-    summary, report and plots: the headline and plot code meet every scene's summary."""
+    summary, dataset, report and plots: the headline and plot code meet every scene's summary,
+    and the dataset names every scene's arrays."""
     from chiptwin.report.outputs import write_outputs
 
     result = run(load_scenario(SCENARIOS / f"{name}.toml", REDUCED.get(name, [])))
@@ -232,6 +238,10 @@ def test_every_bundled_scenario_writes_its_outputs(name, tmp_path):
     report = (out / "report.md").read_text()
     assert json.loads((out / "summary.json").read_text())["scenario"] == name
     assert all(f"]({png.name})" in report for png in out.glob("*.png"))
+    with open_run(out) as ds:  # every array labelled (chiptwin.report.dataset.VARIABLES)
+        unlabelled = [n for n, v in ds.variables.items() if any("_dim" in d for d in v.dims)]
+        assert not unlabelled and set(result.arrays) - {"read_quality_offsets"} <= set(
+            ds.variables)
 
 
 # --- The chip model's run in closed form (chiptwin.chip.steady) -------------------------------

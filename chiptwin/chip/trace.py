@@ -1,7 +1,7 @@
 """The chip's probe: every block reports ``(t_ns, block, event, value)`` to a recorder passed in.
 
 Nothing in the chip model prints; a trace can be saved as arrays or written as a VCD file for a
-waveform viewer (GTKWave): one integer signal per ``block.event``.
+waveform viewer (GTKWave, Surfer): each block's states as signals (:mod:`chiptwin.chip.vcd`).
 """
 
 from __future__ import annotations
@@ -10,6 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from chiptwin.chip.vcd import write_vcd
 
 #: The steps of a frame the chip model records only when the trace asks for them
 #: (:attr:`Recorder.frame_steps`): ``(block, event)`` of the reset, the reset conversions, the start
@@ -54,7 +56,8 @@ class Recorder:
         return np.array([t for t, b, e, _ in self.events if b == block and e == event], np.int64)
 
     def to_arrays(self) -> dict[str, np.ndarray]:
-        """Columns for an ``.npz`` file: ``t_ns``, ``block``, ``event``, ``value``."""
+        """The trace as columns ``trace_t_ns``, ``trace_block``, ``trace_event``, ``trace_value``
+        (and ``trace_frame_steps``), as the run's dataset holds them (``run.nc``)."""
         t, b, e, v = zip(*self.events, strict=True) if self.events else ((), (), (), ())
         return {
             "trace_t_ns": np.array(t, np.int64),
@@ -64,30 +67,8 @@ class Recorder:
             "trace_frame_steps": np.array(self.frame_steps),
         }
 
-    def write_vcd(self, path: str | Path) -> None:
-        """Write the trace as a Value Change Dump: one 32-bit signal per ``block.event``."""
-        names = sorted({f"{b}.{e}" for _, b, e, _ in self.events})
-        ids = {name: _vcd_id(i) for i, name in enumerate(names)}
-        lines = [] if self.frame_steps else [
-            "$comment frame steps (reset, conversions, integration start) not recorded $end"]
-        lines += ["$timescale 1ns $end", "$scope module chip $end"]
-        lines += [f"$var integer 32 {ids[n]} {n.replace('.', '_')} $end" for n in names]
-        lines += ["$upscope $end", "$enddefinitions $end"]
-        last_t = None
-        for t, b, e, v in self.events:
-            if t != last_t:
-                lines.append(f"#{t}")
-                last_t = t
-            lines.append(f"b{int(v) & 0xFFFFFFFF:b} {ids[f'{b}.{e}']}")
-        Path(path).write_text("\n".join(lines) + "\n")
-
-
-def _vcd_id(i: int) -> str:
-    """Short printable VCD identifiers: !, ", #, ... then two characters."""
-    chars = [chr(c) for c in range(33, 127)]
-    out = ""
-    while True:
-        out = chars[i % len(chars)] + out
-        i = i // len(chars) - 1
-        if i < 0:
-            return out
+    def write_vcd(self, path: str | Path, end_ns: int | None = None, comment: str = "") -> None:
+        """Write the trace as an IEEE 1364 value change dump (:mod:`chiptwin.chip.vcd`): per
+        block its states, the frame memory's occupancy, the DSP's busy signal, frame numbers."""
+        write_vcd(self.events, path, frame_steps=self.frame_steps, end_ns=end_ns,
+                  comment=comment)

@@ -32,6 +32,7 @@ from chiptwin.cli.common import (
     _working,
 )
 from chiptwin.cli.progress import Progress as _Progress
+from chiptwin.cli.reads import READS_HELP, add_reads, reads_command
 from chiptwin.cli.text import (
     WIDTH,
     epilog,
@@ -98,6 +99,9 @@ def build_parser() -> argparse.ArgumentParser:
     _scenario_args(r)
     r.add_argument("--out", help="output folder (default: out/SCENARIO_NAME)")
     r.add_argument("--quiet", action="store_true", help="no progress, no table")
+    r.add_argument("--vcd", action="store_true",
+                   help="also write the chip's timing as a waveform, chip.vcd (IEEE 1364 value "
+                        "change dump, for GTKWave or Surfer)")
     v = _command(sub, "validate", "check a scenario or study file without running it, and "
                  "estimate its wall time")
     _scenario_args(v)
@@ -108,6 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
     _scenario_args(d)
     d.add_argument("--json", help="also write the report as JSON to this file")
     add_characterize(_command(sub, "characterize", CHARACTERIZE_HELP))
+    add_reads(_command(sub, "reads", READS_HELP))
     la = _command(sub, "ladder", "speed against error: every fidelity level of a scene "
                   "against the most faithful combination")
     _scenario_args(la)
@@ -222,6 +227,8 @@ def _dispatch(args: argparse.Namespace) -> int:
         return _study(args)
     if args.command == "characterize":
         return characterize_command(args)
+    if args.command == "reads":
+        return reads_command(args)
     if args.command == "validate" and _is_study(args.scenario):
         return _validate_study(args.scenario, args.verbose)
     path = _scenario_path(args.scenario, studies_too=args.command == "validate")
@@ -256,11 +263,11 @@ def _dispatch(args: argparse.Namespace) -> int:
     progress = None if args.quiet else _Progress()
     with output_lock(out), _working(progress):
         result = run(scenario, progress=progress)
-        out = write_outputs(result, out)
+        out = write_outputs(result, out, vcd=args.vcd)
     if not args.quiet:
         print(table(headline(result.summary)))
-        print(table([("outputs in", f"{_shown(out)}/ (summary.json, arrays.npz, report.md, "
-                                    "plots)")]))
+        print(table([("outputs in", f"{_shown(out)}/ (summary.json, run.nc, report.md, plots"
+                                    + (", chip.vcd)" if args.vcd else ")"))]))
     return 0
 
 

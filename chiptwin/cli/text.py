@@ -60,6 +60,12 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
         ("chiptwin characterize --from my_sensor.json", "a twin configured from a datasheet"),
         ("chiptwin characterize pyro_1fmol --adc", "the ADC's IEEE 1241 bench: DNL, INL, ENOB"),
     ],
+    "reads": [
+        ("chiptwin reads call run.sff", "call a 454 run's reads; agreement with the instrument's"),
+        ("chiptwin reads call ion.bam --caller dephase",
+         "an aligned Ion BAM: errors against the reference, twin and instrument"),
+        ("chiptwin reads call run.sff --truth templates.fasta", "against known templates"),
+    ],
     "ladder": [
         ("chiptwin ladder pyro_1fmol", "every fidelity level's time and error"),
         ("chiptwin ladder pyro_1fmol --replicates 3 --reference dsp=fixed",

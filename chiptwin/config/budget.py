@@ -76,7 +76,8 @@ MEMORY_BUDGET_ENV: str = "CHIPTWIN_MEMORY_BUDGET_GIB"
 #: The interpreter with numpy, numba, simpy and matplotlib loaded (260 MB RSS for pyro_1fmol).
 BASE_BYTES: int = 384 << 20
 #: Per frame: ≈ 7 trace events and 2 memory-occupancy entries as Python tuples, the simpy events,
-#: the trace's arrays in arrays.npz, the light-curve plot (measured 2.4 kB per frame on 1e5 frames).
+#: the trace's arrays in the run's dataset, the light-curve plot (measured 2.4 kB per frame on 1e5
+#: frames).
 FRAME_BYTES: int = 3072
 #: Per site and frame: the light table (two window edges per frame, float64), the DSP outputs
 #: kept at the site pixels (value, mean, variance per output frame), the summary's arrays

@@ -520,7 +520,8 @@ def wall_seconds(s: Scenario) -> float:
 
 
 def disk_bytes(s: Scenario) -> int:
-    """What ``save_frames`` writes (``frames.npy``): 0 when it is off. Unit: bytes."""
+    """What ``save_frames`` writes (the frames, uncompressed: streamed to a temporary file during
+    the run, then into ``run.nc``): 0 when it is off. Unit: bytes."""
     if not s.run.save_frames:
         return 0
     c = s.chip
@@ -539,7 +540,7 @@ def describe(s: Scenario) -> list[str]:
              f"{format_seconds(s.run.max_wall_s)}; within {ESTIMATE_FACTOR:g}× either way):"]
     lines += [f"  {t.seconds:9.3g} s  {t.what}" for t in wall_estimate(s) if t.seconds > 0]
     if s.run.save_frames:
-        lines.append(f"save_frames writes ≈ {disk_bytes(s) / 1e9:.3g} GB (frames.npy)")
+        lines.append(f"save_frames writes ≈ {disk_bytes(s) / 1e9:.3g} GB (the frames in run.nc)")
     return lines
 
 
@@ -569,7 +570,7 @@ def check_wall_time(s: Scenario) -> None:
 
 
 def check_disk(s: Scenario, out: Path) -> None:
-    """Refuse ``save_frames`` when ``frames.npy`` would not fit on the output folder's disk."""
+    """Refuse ``save_frames`` when the frames would not fit on the output folder's disk."""
     need = disk_bytes(s)
     if not need:
         return
@@ -577,7 +578,7 @@ def check_disk(s: Scenario, out: Path) -> None:
     free = shutil.disk_usage(folder).free
     if need + DISK_MARGIN_BYTES > free:
         raise ScenarioError(s.source, "run.save_frames", True,
-                            f"frames.npy would take ≈ {need / 1e9:.3g} GB, the disk of {folder} "
+                            f"the frames would take ≈ {need / 1e9:.3g} GB, the disk of {folder} "
                             f"has {free / 1e9:.3g} GB free; free some, choose another --out, "
                             "or set run.save_frames = false")
 

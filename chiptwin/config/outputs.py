@@ -9,6 +9,9 @@ folder (beside it, since a run replaces the folder whole) for its whole life: an
 file holding the writer's pid. A second command on the same folder is refused naming that pid; a
 lock left by a process that is gone (the kernel drops an ``flock`` with its holder) is taken over
 with a message naming the old pid.
+
+Outputs get the modes the user's umask gives (:func:`new_file_mode`), also those made first as
+private temporary files or folders (``tempfile``'s 0600 and 0700) and renamed into place.
 """
 
 from __future__ import annotations
@@ -69,6 +72,7 @@ def replacing(out: Path) -> Iterator[Path]:
     a half-written folder that looks complete."""
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:
+        tmp.chmod(new_file_mode(folder=True))  # mkdtemp's 0700, not the user's choice
         yield tmp
         if out.exists():
             shutil.rmtree(out)
@@ -76,6 +80,28 @@ def replacing(out: Path) -> Iterator[Path]:
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+
+
+def umask() -> int:
+    """The process's file-mode creation mask: from ``/proc/self/status`` where Linux gives it,
+    else set and restored at once (``os.umask`` has no read-only form)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def new_file_mode(folder: bool = False) -> int:
+    """The mode ``open`` or ``mkdir`` would give a new file (0o666) or folder (0o777) under the
+    user's umask: for what ``tempfile`` creates private (0o600, 0o700) before it becomes an
+    output."""
+    return (0o777 if folder else 0o666) & ~umask()
 
 
 def lock_path(out: Path) -> Path:
@@ -103,7 +129,7 @@ def output_lock(out: Path, note: Callable[[str], None] = _note) -> Iterator[Path
         return
     path = lock_path(out)
     while True:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)  # the umask decides
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -138,4 +164,5 @@ def _read_pid(fd: int) -> int | None:
         return None
 
 
-__all__ = ["OUTPUT_MARK", "check_out_dir", "lock_path", "output_lock", "replacing"]
+__all__ = ["OUTPUT_MARK", "check_out_dir", "lock_path", "new_file_mode", "output_lock",
+           "replacing", "umask"]

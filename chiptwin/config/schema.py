@@ -680,7 +680,9 @@ class Run:
         doc="window total: plain sum of DSP outputs, or the matched filter for the assay's "
             "exponential decay (pyrosequencing k_a, ATP turnover)")
     save_frames: bool = param(
-        False, kind=bool, doc="stream every frame as read to frames.npy in the output folder")
+        False, kind=bool,
+        doc="keep every frame as read: the variable frames of run.nc in the output folder "
+            "(streamed to a temporary file during the run, never held)")
     beside_physical_law: bool = param(
         True, kind=bool,
         doc="under the paper's lambertian_na2 convention: also run the scene with isotropic "

@@ -65,14 +65,21 @@ def length_at_quality(p_error: np.ndarray, max_error: float = Q20_ERROR) -> int:
 
 
 def base_truth(calls: np.ndarray, true_n: np.ndarray) -> np.ndarray:
-    """Whether each called base is wrong, by the quality's convention: base ``i`` of a called
-    ``h``-mer is wrong when the true length is below ``i``; an under-call charges the last."""
+    """Whether each called base is wrong, by the quality's convention (454's): base ``i`` of a
+    called ``h``-mer is wrong when the true length is below ``i``; an under-call charges the
+    run's last base, a run missed entirely (a flow called 0 whose truth is not) the base before
+    the gap (the read's first base when none is)."""
+    calls = np.asarray(calls, dtype=np.int64)
     out = []
     for k in np.flatnonzero(calls):
         h, t = int(calls[k]), int(true_n[k])
         i = np.arange(1, h + 1)
         out.append((t < i) | ((i == h) & (t > h)))
-    return np.concatenate(out) if out else np.zeros(0, dtype=bool)
+    wrong = np.concatenate(out) if out else np.zeros(0, dtype=bool)
+    missed = np.flatnonzero((calls == 0) & (np.asarray(true_n) > 0))
+    if wrong.size and missed.size:
+        wrong[np.maximum(np.cumsum(calls)[missed] - 1, 0)] = True
+    return wrong
 
 
 def site_figures(calls: np.ndarray, true_n: np.ndarray, p_error: np.ndarray) -> dict[str, Any]:

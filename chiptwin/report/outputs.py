@@ -1,4 +1,5 @@
-"""Outputs of a run: ``summary.json``, ``arrays.npz``, PNG plots and ``report.md``, atomically.
+"""Outputs of a run: ``summary.json``, ``run.nc`` (its arrays as one labelled dataset), PNG plots,
+``report.md`` and, on request, ``chip.vcd`` (the chip's timing as a waveform), atomically.
 
 Everything is written into a fresh temporary folder beside the target and renamed into place at the
 end, so a crashed or refused run never leaves a half-written folder that looks complete.
@@ -7,13 +8,17 @@ end, so a crashed or refused run never leaves a half-written folder that looks c
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from chiptwin import __version__
+from chiptwin.chip import Schedule
+from chiptwin.chip.vcd import write_vcd
+from chiptwin.config import ScenarioError
 from chiptwin.config.outputs import check_out_dir, replacing
+from chiptwin.report.dataset import DATASET_FILE, write_dataset
 from chiptwin.report.read_plots import flow_chars, read_lines, read_plots, sff_reads
 from chiptwin.report.sff import write_sff
 from chiptwin.twin.figures import save_figure as _save
@@ -23,21 +28,65 @@ if TYPE_CHECKING:
     from chiptwin.twin.runner import Result
 
 
-def write_outputs(result: Result, out_dir: str | Path) -> Path:
-    """Write every output of ``result`` into ``out_dir``, replacing a previous output whole."""
+def write_outputs(result: Result, out_dir: str | Path, vcd: bool = False) -> Path:
+    """Write every output of ``result`` into ``out_dir``, replacing a previous output whole.
+
+    ``vcd``: also write the chip's event trace as ``chip.vcd`` (:mod:`chiptwin.chip.vcd`); a
+    trace without every frame's steps is refused (:func:`check_vcd`), and nothing is written.
+    """
+    if vcd:
+        check_vcd(result)
     out = check_out_dir(out_dir)
     with replacing(out) as tmp:
         (tmp / "summary.json").write_text(json.dumps(result.summary, indent=2) + "\n")
-        np.savez_compressed(tmp / "arrays.npz", **result.arrays, **result.trace.to_arrays())
-        if result.frames_path is not None:  # [run] save_frames: streamed during the run
-            shutil.move(result.frames_path, tmp / "frames.npy")
-            result.frames_path = None
+        frames, result.frames_path = result.frames_path, None  # [run] save_frames
+        try:
+            write_dataset(result, tmp / DATASET_FILE, frames)
+        finally:
+            if frames is not None:
+                frames.unlink(missing_ok=True)
+        if vcd:
+            write_chip_vcd(result, tmp / VCD_FILE)
         if "read_calls" in result.arrays:  # pyrosequencing: every site's read, in SFF
             write_sff(tmp / "reads.sff", flow_chars(result.scenario), result.scenario.assay.key,
                       sff_reads(result.scenario, result.summary, result.arrays))
         plots = make_plots(result, tmp)
         (tmp / "report.md").write_text(report_markdown(result.summary, plots))
     return out
+
+
+#: The chip's timing as a waveform, in a run's output folder (``chiptwin run --vcd``).
+VCD_FILE = "chip.vcd"
+
+
+def check_vcd(result: Result) -> None:
+    """Refuse a VCD of a trace that lacks the frames' steps (reset, conversions, integration):
+    ``Recorder(frame_steps=False)``, a study's replicates (``run_prepared(frame_steps=False)``).
+
+    Raises
+    ------
+    ScenarioError
+        Naming ``frame_steps``, the key that records them.
+    """
+    trace = result.trace
+    if trace.events and trace.frame_steps:
+        return
+    what = "no chip trace" if not trace.events else "a chip trace without the frames' steps"
+    raise ScenarioError(result.scenario.source, "--vcd",
+                        "no events" if not trace.events else "frame_steps=False",
+                        f"this result has {what} (reset, conversions, integration): run it "
+                        "with frame_steps=True (chiptwin.run records them; a study's "
+                        "replicates do not: run_prepared(..., frame_steps=True))")
+
+
+def write_chip_vcd(result: Result, path: Path) -> None:
+    """The chip's trace as a value change dump, ending when the run's frames end."""
+    s = result.scenario
+    sch = Schedule.from_chip(s.chip, s.run.duration_s)
+    end_ns = max(sch.n_frames * sch.frame_period_ns, result.trace.events[-1][0])
+    write_vcd(result.trace.events, path, frame_steps=result.trace.frame_steps, end_ns=end_ns,
+              comment=f"chiptwin run of {s.scenario.name}, seed {s.scenario.seed}",
+              version=f"chiptwin {__version__}")
 
 
 def make_plots(result: Result, folder: Path) -> list[tuple[str, str]]:

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from chiptwin.config import Scenario
-from chiptwin.report.sff import SffRead
+from chiptwin.report.sff import SffRead, quality_clip
 from chiptwin.twin.figures import save_figure as _save
 
 if TYPE_CHECKING:
@@ -102,7 +102,8 @@ def read_lines(summary: dict[str, Any]) -> list[str]:
                                ("read length at 99 % accuracy (bases)", l99))),
              "", f"Read accuracy {100 * r['read_accuracy']:.3f} %; {r['chip_q20_bases']} bases "
              f"at Q20 over the chip; {r['sites_q20_at_least_200']} sites read ≥ 200 bases at "
-             "Q20.", "", "| homopolymer | flows | over-call | under-call |", "|---|---|---|---|",
+             f"Q20; {r.get('key_fail_reads', 0)} reads fail the key (left out of reads.sff).",
+             "", "| homopolymer | flows | over-call | under-call |", "|---|---|---|---|",
              *(f"| {h['length']} | {h['flows']} | {h['over_rate']:.2e} | {h['under_rate']:.2e} |"
                for h in r["homopolymer_errors"]),
              "", "| quality | bases | stated error | observed (95 % CI) |", "|---|---|---|---|",
@@ -113,9 +114,12 @@ def read_lines(summary: dict[str, Any]) -> list[str]:
 
 
 def sff_reads(s: Scenario, summary: dict[str, Any], arrays: dict[str, np.ndarray]) -> list:
-    """The run's reads as :class:`chiptwin.report.sff.SffRead`, one per site: the caller's flow
-    values (hundredths), bases, phred qualities, flow of each base; quality clip from after the
-    key to the end of the read's Q20 length (1-based, as SFF defines clip points)."""
+    """The run's reads as :class:`chiptwin.report.sff.SffRead`, one per site whose first flows
+    spell the key (the key-pass filter; the others are counted in ``summary['reads']
+    ['key_fail_reads']``): the caller's flow values (hundredths), bases, phred qualities, flow
+    of each base; quality clip from after the key to the end of the read's Q20 length (1-based,
+    as SFF defines clip points; :func:`chiptwin.report.sff.quality_clip`: a read with no base
+    at Q20 after the key is clipped to nothing)."""
     a = s.assay
     order = a.flow_order
     key = a.key
@@ -123,14 +127,16 @@ def sff_reads(s: Scenario, summary: dict[str, Any], arrays: dict[str, np.ndarray
     off = arrays["read_quality_offsets"]
     out = []
     for j, row in enumerate(calls):
+        site = summary["reads"]["sites"][j]
+        if not site.get("key_pass", True):
+            continue
         bases = "".join(order[k % len(order)] * int(c) for k, c in enumerate(row))
-        q20 = summary["reads"]["sites"][j]["q20_read_length"]
-        left = len(key) + 1 if bases.startswith(key) and len(bases) > len(key) else 0
+        left, right = quality_clip(len(key), max(int(site["q20_read_length"]) - len(key), 0))
         out.append(SffRead(
             name=f"site{j:04d}_px{int(arrays['site_pixel_index'][j]):06d}",
             flowgram_x100=arrays["read_flowgram_x100"][j], bases=bases,
             qualities=q[off[j]:off[j + 1]], flow_index=np.repeat(np.arange(row.size), row),
-            clip_qual_left=left, clip_qual_right=min(int(q20), 65535)))
+            clip_qual_left=left, clip_qual_right=right))
     return out
 
 

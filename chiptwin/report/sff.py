@@ -13,8 +13,12 @@ checks it:
   base (u8, relative to the previous base's flow; the first is 1-based), the bases, the phred
   qualities (u8).
 
+:func:`quality_clip` gives the clip points of a read whose good part follows its key: a read
+with no good base is clipped to nothing (``clip_qual_right`` one below ``clip_qual_left``, as
+the format allows), never left at 0, which means "not set" and keeps the whole read.
+
 :func:`write_sff` writes a whole file or nothing: to a temporary file in the target's folder,
-then ``os.replace``.
+then ``os.replace``; the file gets the mode the user's umask gives a new file.
 """
 
 from __future__ import annotations
@@ -27,6 +31,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from chiptwin.config.outputs import new_file_mode
 
 MAGIC = 0x2E736666  # ".sff"
 VERSION = b"\x00\x00\x00\x01"
@@ -50,6 +56,17 @@ class SffRead:
     flow_index: np.ndarray  # int (n_bases,), 0-based absolute
     clip_qual_left: int = 0
     clip_qual_right: int = 0
+
+
+def quality_clip(key_length: int, good: int) -> tuple[int, int]:
+    """``(clip_qual_left, clip_qual_right)``, 1-based, of a read whose first ``good`` bases
+    after a key of ``key_length`` bases are kept. No good base: ``right = left − 1``, an empty
+    clip (SFF's 0 would mean "not set": ``sff-trim`` and Biopython's ``trim=True`` would keep the
+    whole read)."""
+    if key_length < 0 or good < 0:
+        raise ValueError(f"key_length {key_length} and good {good} must be ≥ 0")
+    left = max(key_length, 1) + 1 if good == 0 else key_length + 1
+    return min(left, 65535), min(key_length + good if good else left - 1, 65535)
 
 
 def _pad(n: int) -> bytes:
@@ -104,6 +121,7 @@ def write_sff(path: str | Path, flow_chars: str, key: str, reads: Sequence[SffRe
     data = sff_bytes(flow_chars, key, reads)  # every check before a byte reaches the disk
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
+        os.fchmod(fd, new_file_mode())  # mkstemp's 0600, not the user's choice
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()

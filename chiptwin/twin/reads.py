@@ -17,6 +17,7 @@ import numpy as np
 
 from chiptwin.config import Scenario
 from chiptwin.detection import read_stats
+from chiptwin.detection.key_pass import key_counts, passes_key
 from chiptwin.detection.reads import (
     FlowNoise,
     Read,
@@ -125,10 +126,12 @@ def read_figures(s: Scenario, values: np.ndarray, reads: list[Read], true_n: np.
     quals = [phred(p) for p in p_err]
     sites = []
     truths = [read_stats.called_truth(true_n, r.n_called) for r in reads]
+    key_n = key_counts(a.key, "".join(a.flow_order[k % len(a.flow_order)]
+                                      for k in range(a.n_flows)))
     for j, r in enumerate(reads):
         row = read_stats.site_figures(r.calls, truths[j], p_err[j])
         row.update(id=j, incomplete_extension=r.eps, carry_forward=r.lam, droop_per_flow=r.droop,
-                   gain=r.gain)
+                   gain=r.gain, key_pass=key_n is not None and passes_key(r.calls, key_n))
         if r.noise is not None:  # the caller's noise model: var = floor + shot·m + ref·m²
             row["noise"] = {"floor": r.noise.floor, "shot": r.noise.shot, "ref": r.noise.ref}
         sites.append(row)
@@ -147,6 +150,9 @@ def read_figures(s: Scenario, values: np.ndarray, reads: list[Read], true_n: np.
         "read_length_99": _stats([x["read_length_99"] for x in sites]),
         "chip_q20_bases": int(sum(x["q20_read_length"] for x in sites)),
         "sites_q20_at_least_200": int(sum(x["q20_read_length"] >= 200 for x in sites)),
+        # the key-pass filter (454, Ion): reads.sff leaves out the reads whose first flows do
+        # not spell the key; the figures here are every site's
+        "key_fail_reads": int(sum(not x["key_pass"] for x in sites)),
         "errors": int(errors),
         "called_bases": int(bases),
         "read_accuracy": 1.0 - errors / max(sum(min(x["bases"], template_bases)

@@ -23,6 +23,7 @@ from chiptwin.chip import ChipRun, Recorder, Schedule, SteadyRun, simulate_chip,
 from chiptwin.config import Scenario, load_scenario, reference_chip
 from chiptwin.config.consistency import check_consistency, scenario_warnings
 from chiptwin.config.cost import moments_at_kept_pixels
+from chiptwin.config.outputs import new_file_mode
 from chiptwin.constants import TICKS_PER_S
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
 from chiptwin.dsp._kernels import count_ends_kernel
@@ -42,7 +43,8 @@ class Result:
     trace: Recorder
     scenario: Scenario
     #: ``[run] save_frames``: every frame as read, a ``.npy`` file in the temporary folder
-    #: (:func:`chiptwin.report.write_outputs` moves it into the output folder as ``frames.npy``).
+    #: (:func:`chiptwin.report.write_outputs` copies it into the run's dataset, ``run.nc``, and
+    #: removes it).
     frames_path: Path | None = None
 
 
@@ -149,6 +151,7 @@ def _check_resolved(s: Scenario) -> None:
 def _frames_file() -> Path:
     """A fresh ``.npy`` path in the temporary folder (``TMPDIR``) for the frames of one run."""
     fd, name = tempfile.mkstemp(prefix="chiptwin-frames-", suffix=".npy")
+    os.fchmod(fd, new_file_mode())  # it becomes the output's frames.npy: the umask's mode
     os.close(fd)
     return Path(name)
 

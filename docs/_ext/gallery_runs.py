@@ -170,13 +170,15 @@ def signal_chain(name: str = "pyro_1fmol", width: int = 760):
     import io
 
     import matplotlib
-    import numpy as np
     from IPython.display import Image
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    flows = np.load(scenario_outputs(name) / "arrays.npz")["flow_values"][0]
+    from chiptwin import open_run
+
+    with open_run(scenario_outputs(name)) as ds:
+        flows = ds["flow_values"].values[0]
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 4.6), height_ratios=[1, 1.5])
     top.set(xlim=(0, len(CHAIN)), ylim=(0, 1)), top.axis("off")
     for i, (stage, leaves) in enumerate(CHAIN):

@@ -129,7 +129,8 @@ def test_round_trip_through_the_format(tmp_path):
     mine = json.loads((out / "emva1288.json").read_text())["parameters"]
     m = json.loads((out / "emva1288.json").read_text())["camera"]["cms_samples"]
     with numpy_shim():
-        from emva1288.process import data as d, loader, parser, results
+        from emva1288.process import data as d
+        from emva1288.process import loader, parser, results
 
         desc = parser.ParseEmvaDescriptorFile(str(data / "EMVA1288_Data.txt"),
                                               loglevel=logging.WARNING)

@@ -15,7 +15,7 @@ from chiptwin.config import budget, load_scenario
 from chiptwin.fidelity import run
 from chiptwin.pixel import CHUNK_PIXELS
 from chiptwin.pixel import frames as frames_module
-from chiptwin.report.outputs import write_outputs
+from chiptwin.report import open_run, write_outputs
 from chiptwin.twin import stages
 from chiptwin.twin.runner import Recorder, prepare, run_prepared, simulate, stage_rng
 
@@ -90,9 +90,10 @@ def test_peak_memory_does_not_grow_with_frames_beyond_the_trace(wide, monkeypatc
 
 @pytest.mark.parametrize("level", ["binned", "expected"])
 def test_saved_frames_are_what_the_dsp_saw(wide, tmp_path, level):
-    """Every frame streamed to frames.npy, read back: at the binned level the codes the DSP
+    """Every frame streamed to a .npy file, read back: at the binned level the codes the DSP
     read (the pipeline keeps them with keep_codes), frame for frame; at the expected level the
-    expected CMS differences. write_outputs moves the file into the output folder."""
+    expected CMS differences. write_outputs copies them into the run's dataset (``frames`` in
+    run.nc) and removes the streamed file."""
     s = replace(wide, run=replace(wide.run, duration_s=60.0))
     path = tmp_path / "frames.npy"
     out = simulate(s, prepare(s), level, stage_rng(s.scenario.seed, "pixel"), Recorder(),
@@ -107,10 +108,14 @@ def test_saved_frames_are_what_the_dsp_saw(wide, tmp_path, level):
         scene = prepare(s)
         whole = scene.pixel_frames(s.chip.timing.t_int_s, s.chip.adc.gain_error)
         assert np.array_equal(saved, whole.cds_mean_lsb)
-    result = run(wide)
-    result.frames_path = path
+    result = run(replace(wide, run=replace(wide.run, save_frames=True, fidelity=replace(
+        wide.run.fidelity, photons=level))))
+    streamed = result.frames_path
+    frames = np.load(streamed)
     folder = write_outputs(result, tmp_path / "out")
-    assert np.array_equal(np.load(folder / "frames.npy"), saved) and not path.exists()
+    with open_run(folder) as ds:
+        assert np.array_equal(ds["frames"].values.reshape(frames.shape), frames)
+    assert not streamed.exists()
 
 
 def test_sparse_coupling_is_the_dense_one_within_its_tolerance(small_toml, monkeypatch):

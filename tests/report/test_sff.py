@@ -96,3 +96,61 @@ def test_run_writes_reads_sff_biopython_reads_back(tmp_path):
     for plot in ("flowgram.png", "accuracy_position.png", "homopolymer_errors.png",
                  "read_length.png", "quality_calibration.png"):
         assert (out / plot).stat().st_size > 1000 and f"({plot})" in report
+
+
+@pytest.mark.parametrize(("key", "good", "clip"), [
+    (4, 10, (5, 14)),
+    (4, 0, (5, 4)),  # nothing good: an empty clip, never 0 ("not set": the whole read kept)
+    (0, 0, (2, 1)),
+    (0, 3, (1, 3)),
+])
+def test_quality_clip_of_a_read_after_its_key(key, good, clip):
+    from chiptwin.report.sff import quality_clip
+
+    assert quality_clip(key, good) == clip
+
+
+def test_twin_sff_drops_reads_failing_the_key_and_clips_unreadable_ones_to_nothing(tmp_path):
+    """Biopython's trimming reader keeps exactly the bases after the key up to the Q20 length
+    the summary states; a site whose first flows do not spell the key is left out."""
+    from chiptwin.report.read_plots import sff_reads
+
+    s = load_scenario("scenarios/pyro_long_read.toml")
+    order, n = s.assay.flow_order, 40
+    calls = np.zeros((3, n), dtype=np.int64)
+    for row in calls:
+        row[[0, 2, 5, 7]] = 1  # TCAG through TACG
+        row[8:] = np.arange(n - 8) % 3
+    calls[1, 0] = 0  # no T: the key fails
+    q = np.full(int(calls.sum()), 35, np.uint8)
+    off = np.concatenate([[0], np.cumsum(calls.sum(axis=1))])
+    arrays = {"read_calls": calls, "read_quality": q, "read_quality_offsets": off,
+              "read_flowgram_x100": (calls * 100).astype(np.uint16),
+              "site_pixel_index": np.arange(3)}
+    sites = [{"q20_read_length": 30, "key_pass": True}, {"q20_read_length": 30, "key_pass": False},
+             {"q20_read_length": 3, "key_pass": True}]
+    records = sff_reads(s, {"reads": {"sites": sites}}, arrays)
+    assert [r.name[:8] for r in records] == ["site0000", "site0002"]
+    path = write_sff(tmp_path / "reads.sff", "".join(order[k % 4] for k in range(n)), "TCAG",
+                     records)
+    with open(path, "rb") as f, pytest.warns(Warning, match="trimmed to nothing"):
+        trimmed = [str(r.seq) for r in Bio.parse(f, "sff-trim")]
+    assert trimmed[0] == records[0].bases[4:30] and trimmed[1] == ""
+
+
+def test_written_files_and_folders_follow_the_umask(tmp_path):
+    """tempfile makes private files (0600) and folders (0700): an output renamed from them
+    gets the mode the user's umask gives a new one."""
+    import os
+    import stat
+
+    from chiptwin.config.outputs import replacing
+
+    old = os.umask(0o002)
+    try:
+        with replacing(tmp_path / "out") as tmp:
+            write_sff(tmp / "reads.sff", "TACG" * 5, "TCAG", _reads())
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE((tmp_path / "out").stat().st_mode) == 0o775
+    assert stat.S_IMODE((tmp_path / "out" / "reads.sff").stat().st_mode) == 0o664
