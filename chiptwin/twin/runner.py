@@ -151,7 +151,7 @@ def _check_resolved(s: Scenario) -> None:
 def _frames_file() -> Path:
     """A fresh ``.npy`` path in the temporary folder (``TMPDIR``) for the frames of one run."""
     fd, name = tempfile.mkstemp(prefix="chiptwin-frames-", suffix=".npy")
-    os.fchmod(fd, new_file_mode())  # it becomes the output's frames.npy: the umask's mode
+    os.fchmod(fd, new_file_mode())  # copied into the output's run.nc; the umask's mode
     os.close(fd)
     return Path(name)
 
