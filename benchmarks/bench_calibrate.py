@@ -7,8 +7,8 @@ EMVA 1288 data set), from scratch, with its evaluations per stage and its wall t
 ``--replay``: first the seconds of one candidate (the twin read through the data set's protocol)
 at several ``max_pixels``. ``--quick``: a light curve of the bundled ``atp_glow`` scene (its
 kinetics at known values, 2 % noise from a seeded generator) fitted for two keys in one process
-(the same fit, profile and store code path, no data set needed). Without the data set beside the
-project (``../shared/data/real/emva1288/set001_ccd_12bit_crop128``) only ``--quick`` runs.
+(the same fit, profile and store code path, no data set needed). Without the data set
+(``$CHIPTWIN_DATA/emva1288/set001_ccd_12bit_crop128``) only ``--quick`` runs.
 
 Measured: see the bundled study's opening comment (evaluations and wall time on 2 workers).
 
