@@ -194,7 +194,8 @@ def residuals_plot(summary: dict[str, Any], folder: Path) -> tuple[str, str]:
         left, right = axes[b]
         left.errorbar(x, meas, yerr=se if r["weighted"] else None, fmt="o", ms=3,
                       label="measured")
-        left.plot(x, fitted, "-", color="tab:red", label="fitted twin")
+        left.plot(x, fitted, "-" if x.size > 1 else "s", color="tab:red", mfc="none",
+                  label="fitted twin")  # a one-value statistic (K, R) as a marker
         left.set(ylabel=name, xlabel=r["x_label"])
         left.legend(fontsize=7)
         right.axhline(0, color="k", lw=0.6)

@@ -4,7 +4,7 @@ how well the data fit, the correlations, the evaluations and every method statem
 The answer states each fitted key as ``value [lo, hi]`` at the study's confidence (profile
 likelihood), marks an end the data do not bound within the range as open, and names every pair
 of keys whose correlation at the optimum exceeds :data:`INSEPARABLE` in size: the data cannot
-separate them (only a combination of the two is measured).
+separate them (most of what they say is about a combination of the two).
 """
 
 from __future__ import annotations
@@ -69,8 +69,9 @@ def correlation_section(ev: Any, result: Any) -> dict[str, Any]:
             if np.isfinite(rho[a, b]) and abs(rho[a, b]) > INSEPARABLE:
                 pairs.append({"keys": [keys[a], keys[b]], "rho": float(rho[a, b]),
                               "statement": f"the data cannot separate {keys[a]} and {keys[b]} "
-                                           f"(ρ = {rho[a, b]:+.3f}): only a combination of the "
-                                           "two is measured"})
+                                           f"(ρ = {rho[a, b]:+.3f}): most of what they say is "
+                                           "about a combination of the two; each interval "
+                                           "is its own profile, the others re-optimised"})
     silent = [keys[j] for j in range(len(keys)) if not np.isfinite(rho[j, j])]
     return {"keys": keys, "matrix": [[_num(x) for x in row] for row in rho],
             "inseparable": pairs, "threshold": INSEPARABLE,

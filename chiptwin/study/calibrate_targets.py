@@ -32,6 +32,10 @@ Errors in the file name the file, the line and the column.
 **EMVA 1288** (``kind = "emva1288"``): a data set's folder (``EMVA1288_Data.txt`` and its
 images), read by :func:`chiptwin.characterize.measured.read_measured`. Its identity is the hash
 of every file in the folder.
+
+**IEEE 1241 ADC bench** (``kind = "adc1241"``): the folder ``chiptwin characterize SCENARIO
+--adc`` writes; each converter's transition noise in its ``adc1241.json`` is what the fit
+compares (:mod:`chiptwin.study.calibrate_adc`, which reads and checks it).
 """
 
 from __future__ import annotations
@@ -154,9 +158,15 @@ class EmvaTarget:
 
         t = self.measurement.temporal
         n, below = int(t.t_exp_s.size), int(used_points(t).sum())
-        return (f"EMVA 1288 data set {Path(self.path).name}: bright mean and variance at the "
-                f"{below} of {n} photon-transfer points below saturation, dark mean and "
-                f"variance at all {n}; {t.n_values} values an image")
+        return (f"EMVA 1288 data set {Path(self.path).name}: the standard's K and R = Kη over "
+                f"its range ({below} of {n} photon-transfer points), the variance at "
+                f"saturation, dark mean and variance at all {n}; {t.n_values} values an image")
+
+
+#: The EMVA target's compared statistics, by version (2: the standard's K and R over its range,
+#: the variance at saturation, the dark means and variances; 1 compared the bright pairs point
+#: by point).
+EMVA_STATISTICS: int = 2
 
 
 def file_hash(paths: list[Path], root: Path) -> str:
@@ -323,4 +333,7 @@ def read_emva(src: str, where: str, given: str, path: Path, pixel_pitch_um: floa
 
     m = read_measured(folder, pixel_pitch_um)
     files = [p for p in folder.rglob("*") if p.is_file()]
-    return EmvaTarget(str(folder), file_hash(files, folder), pixel_pitch_um, max_pixels, m)
+    # the statistics compared are part of the target's identity: a store written when they were
+    # others is refused on resume, not misread (EMVA_STATISTICS: which ones)
+    ident = hashlib.sha256(f"{file_hash(files, folder)}/{EMVA_STATISTICS}".encode()).hexdigest()
+    return EmvaTarget(str(folder), ident[:16], pixel_pitch_um, max_pixels, m)

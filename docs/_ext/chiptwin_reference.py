@@ -286,7 +286,7 @@ def study_markdown() -> str:
     out += ["## `kind = \"calibrate\"`: fit scenario keys to measured data\n",
             "A calibrate study's `[study]` takes these keys (not `axis`, `metric`, "
             "`requirement`): the keys fitted, the measured target and the objective "
-            "([calibrate](../howto/calibrate.md)).\n"]
+            "([calibrate](../../howto/calibrate.md)).\n"]
     for k, v in CALIBRATE_KEYS.items():
         out += [f"`{k}`", f": {_text(v)}", ""]
     out += ["### `[[study.parameter]]`\n"]
