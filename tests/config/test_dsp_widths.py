@@ -4,7 +4,7 @@ name at validation, never an internal error (exit 1) at validation or in the run
 Each key alone is in range; together they can need more than 64 bits: ``acc_bits = 64`` with
 ``average_frames = 5`` multiplies the accumulator by an 18-bit reciprocal (an 82-bit product),
 a 24-bit ADC with M = 256 and K = 65535 needs a 67-bit product for the dark reference's divide.
-The rule (:func:`chiptwin.config.consistency._dsp_formats`) runs before the schedule and the
+The rule (:func:`chiptwin.config.consistency_chip._dsp_formats`) runs before the schedule and the
 program's costs, which derive the formats. Three tests:
 
 * the issue's command and the tight ends of each limit (the widest value that fits validates,
