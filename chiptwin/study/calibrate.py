@@ -52,6 +52,10 @@ def measured_of(cal: Any) -> Measured:
         from chiptwin.study.calibrate_emva import emva_measured
 
         return emva_measured(t.measurement)
+    if t.kind == "adc1241":
+        from chiptwin.study.calibrate_adc import adc_measured
+
+        return adc_measured(t)
     n = t.n_points
     weighted = t.se is not None
     return Measured(np.asarray(t.y_values, float),

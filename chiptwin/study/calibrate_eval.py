@@ -14,7 +14,9 @@ draws, and the optimiser sees a deterministic objective.
 - **table, x = time**: the sites' light at each time (the kinetics stage; nothing drawn, its
   standard error 0);
 - **EMVA 1288**: the twin read through the data set's protocol
-  (:func:`chiptwin.study.calibrate_emva.replay_stats`).
+  (:func:`chiptwin.study.calibrate_emva.replay_stats`);
+- **IEEE 1241 bench**: the transition noise of the same converters through the bench's DC
+  sweep (:func:`chiptwin.study.calibrate_adc.adc_stats`).
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ class Model:
     ``base_raw``, ``source``, ``scenario_path``: the study's base scenario (with ``set``), as
     :func:`chiptwin.study.spec.point_scenario` reads them."""
 
-    kind: str  # "table", "series" or "emva1288"
+    kind: str  # "table", "series", "emva1288" or "adc1241"
     base_raw: dict[str, Any]
     source: str
     scenario_path: str
@@ -69,9 +71,14 @@ SERIES_S: float = 2e-3
 
 
 def candidate_seconds(study: Any) -> float | None:
-    """Estimated seconds of one candidate of an EMVA or time-series target (None for a table of
-    runs: their rows are costed as a budget study's, ``chiptwin.config.cost.row_seconds``)."""
+    """Estimated seconds of one candidate of an EMVA, ADC-bench or time-series target (None for
+    a table of runs: their rows are costed as a budget study's,
+    ``chiptwin.config.cost.row_seconds``)."""
     t = study.calibration.target
+    if t.kind == "adc1241":
+        from chiptwin.study import calibrate_adc
+
+        return calibrate_adc.candidate_seconds(t.plan)
     if t.kind == "emva1288":
         temporal = t.measurement.temporal
         pixels = temporal.n_values if t.max_pixels is None else min(t.max_pixels,
@@ -92,6 +99,8 @@ def model_of(study: Any) -> Model:
 
         return Model("emva1288", **common, plan=replay_plan(t.measurement),
                      max_pixels=t.max_pixels, masks=_masks(t.measurement.temporal))
+    if t.kind == "adc1241":
+        return Model("adc1241", **common, plan=t.plan)
     if t.series:
         return Model("series", **common, x_values=t.x_values)
     return Model("table", **common, x_key=t.x, x_values=t.x_values, metric=t.y,
@@ -177,4 +186,13 @@ def _emva(m: Model, params: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
     return replay_stats(s, m.plan, stage_rng(seed, "calibrate.replay"), m.max_pixels, m.masks)
 
 
-_SIMULATE = {"table": _table, "series": _series, "emva1288": _emva}
+def _adc(m: Model, params: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    from chiptwin.study.calibrate_adc import adc_stats
+    from chiptwin.twin.stages import stage_rng
+
+    seed = row_seed(m.seed, point_id({}), 0)
+    s = point_scenario(m, params, seed, m.fixed_pattern_seed)
+    return adc_stats(s, m.plan, stage_rng(seed, "calibrate.adc1241"))
+
+
+_SIMULATE = {"table": _table, "series": _series, "emva1288": _emva, "adc1241": _adc}

@@ -16,7 +16,8 @@ A calibration fits numeric scenario keys to measured data (the fit itself:
     why = "a CCD's read noise: a few e⁻ (cooled, slow) to tens of e⁻ (fast)"
 
     [study.target]
-    kind = "emva1288"              # or "table" (a CSV: chiptwin.study.calibrate_targets)
+    kind = "emva1288"              # or "table" (a CSV: chiptwin.study.calibrate_targets), or
+                                   # "adc1241" (an ADC bench: chiptwin.study.calibrate_adc)
     path = "${CHIPTWIN_DATA}/emva1288/set001_ccd_12bit_crop128"   # a ${VAR} is the environment's
 
 Every error names the study file (or the target's file), the key, the value and what is allowed
@@ -34,6 +35,7 @@ from typing import Any
 
 from chiptwin.config.fields import allowed_text
 from chiptwin.config.load import scenario_from_dict
+from chiptwin.study.calibrate_adc import AdcTarget, check_noise_ranges, read_adc1241
 from chiptwin.study.calibrate_targets import SERIES, EmvaTarget, TableTarget, read_emva, read_table
 from chiptwin.study.metrics import CATALOGUE, check_metric_applies
 from chiptwin.study.readers import (
@@ -50,7 +52,7 @@ from chiptwin.study.readers import (
 #: The fit's method, as ``Study.search`` and study.json name it.
 METHOD = "differential_evolution+least_squares"
 OBJECTIVES = ("chi2", "wls")
-TARGET_KINDS = ("table", "emva1288")
+TARGET_KINDS = ("table", "emva1288", "adc1241")
 #: Target kinds named in the field but not built: the refusal says what is missing.
 NOT_BUILT = {"flowgram": "the reads' calibration (SFF/BAM flowgrams) is not built"}
 #: A range whose ends are more than this ratio apart (over one decade) is searched in log space.
@@ -68,7 +70,7 @@ CALIBRATE_KEYS: dict[str, str] = {
             "candidate simulated with the same streams) and of the optimiser's own",
     "set": "inline table of scenario keys, default {}; overrides applied before the fit",
     "parameter": "[[study.parameter]] tables, at least one: the keys fitted",
-    "target": "[study.target] table: the measured data (kind table or emva1288)",
+    "target": "[study.target] table: the measured data (kind table, emva1288 or adc1241)",
     "objective": '"chi2" (the measured standard errors: a likelihood; default where the data '
                  'carry them) or "wls" (equal weights, the error scale from the residuals)',
     "replicates": "integer in [2, 1000], default 4; table target with a scenario key as x: runs "
@@ -101,6 +103,11 @@ TARGET_KEYS: dict[str, dict[str, str]] = {
                  "pitch (a data set does not carry it)", "max_pixels": "optional integer ≥ "
                  f"{MIN_REPLAY_PIXELS}: pixels of the twin read per image (fewer: faster, the "
                  "simulated statistics noisier, which the residuals carry)"},
+    "adc1241": {"kind": '"adc1241"', "path": "required; an IEEE 1241 bench's folder (what "
+                "chiptwin characterize SCENARIO --adc --out DIR writes: adc1241.json), relative "
+                "to the study file or absolute; ${NAME} is the environment's NAME",
+                "max_converters": "optional integer ≥ 2: converters compared, evenly spaced "
+                "over those the bench measured (fewer: faster, a wider interval)"},
 }
 
 
@@ -141,7 +148,7 @@ class Calibration:
     """A validated calibration: what is fitted, to what, and how."""
 
     parameters: tuple[FitParameter, ...]
-    target: TableTarget | EmvaTarget
+    target: TableTarget | EmvaTarget | AdcTarget
     objective: str
     replicates: int
     popsize: int
@@ -200,6 +207,8 @@ def read_calibration(err: Errors, st: dict, base_raw: dict, scenario_path: str,
     base = scenario_from_dict(_copy(base_raw), scenario_path)
     target = _target(err, st, base_raw, base, folder)
     params = _parameters(err, st, base_raw, base, target)
+    if target.kind == "adc1241":
+        check_noise_ranges(err, target, params, base)
     objective = err.choice(st, "objective", OBJECTIVES,
                            "wls" if target.kind == "table" and target.se is None else "chi2")
     if objective == "chi2" and target.kind == "table" and target.se is None:
@@ -229,11 +238,12 @@ def _copy(raw: dict) -> dict:
 
 
 def _target(err: Errors, st: dict, base_raw: dict, base, folder: Path
-            ) -> TableTarget | EmvaTarget:
+            ) -> TableTarget | EmvaTarget | AdcTarget:
     t = st.get("target", dataclasses.MISSING)
     if not isinstance(t, dict):
         err.fail("study.target", t, "a [study.target] table is required: kind = \"table\" (a "
-                 "CSV) or \"emva1288\" (a data set's folder), and its path")
+                 "CSV), \"emva1288\" (a data set's folder) or \"adc1241\" (an ADC bench's "
+                 "folder), and its path")
     kind = t.get("kind", dataclasses.MISSING)
     if kind in NOT_BUILT:
         err.fail("study.target.kind", kind, f"not built yet: {NOT_BUILT[kind]}; targets "
@@ -254,6 +264,9 @@ def _target(err: Errors, st: dict, base_raw: dict, base, folder: Path
     if kind == "emva1288":
         return read_emva(err.source, "study.target.path", given, path, _pitch(err, t),
                          _max_pixels(err, t))
+    if kind == "adc1241":
+        return read_adc1241(err.source, "study.target.path", given, path, base,
+                            _max_converters(err, t))
     x, y, rule = _table_columns(err, t, base_raw, base)
     if not path.is_file():
         err.fail("study.target.path", given, f"no such file: looked for {path.resolve()}")
@@ -307,6 +320,14 @@ def _max_pixels(err: Errors, t: dict) -> int | None:
     if v is not None and (type(v) is not int or not MIN_REPLAY_PIXELS <= v <= 2**31):
         err.fail("study.target.max_pixels", v, f"must be an integer ≥ {MIN_REPLAY_PIXELS} (the "
                  "pixels of the twin read per image)")
+    return v
+
+
+def _max_converters(err: Errors, t: dict) -> int | None:
+    v = t.get("max_converters")
+    if v is not None and (type(v) is not int or not 2 <= v <= 2**16):
+        err.fail("study.target.max_converters", v, "must be an integer ≥ 2 (the converters "
+                 "compared)")
     return v
 
 
@@ -366,9 +387,11 @@ def _replicates(err: Errors, st: dict, target) -> int:
                            "spread is the simulated mean's standard error", default=4)
     if "replicates" in st:
         err.fail("study.replicates", st["replicates"], "applies to a table target with a "
-                 "scenario key as x; " + ("an EMVA replay's statistics carry their own "
-                                          "standard errors" if target.kind == "emva1288" else
-                                          "a time series of the kinetics draws nothing"))
+                 "scenario key as x; " + {"emva1288": "an EMVA replay's statistics carry "
+                                          "their own standard errors", "adc1241": "a "
+                                          "bench's transition noise carries its own standard "
+                                          "error"}.get(target.kind, "a time series of the "
+                                                       "kinetics draws nothing"))
     return 1
 
 
