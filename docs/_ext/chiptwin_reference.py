@@ -44,8 +44,10 @@ def _helps(parser: argparse.ArgumentParser) -> dict[str, str]:
 
 
 def _text(text: object) -> str:
-    """Prose safe in MyST: ``<out>`` is not an HTML tag, ``*`` and ``_`` not emphasis."""
-    return str(text).replace("\\", "\\\\").replace("<", "\\<").replace("*", "\\*")
+    """Prose safe in MyST: ``<out>`` is not an HTML tag, ``*`` and ``_`` not emphasis, ``$`` not
+    math (``${CHIPTWIN_DATA}`` would load MathJax)."""
+    return (str(text).replace("\\", "\\\\").replace("<", "\\<").replace("*", "\\*")
+            .replace("$", "\\$"))
 
 
 def _argument_item(a: argparse.Action) -> list[str]:
