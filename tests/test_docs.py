@@ -124,7 +124,8 @@ def test_generated_scenario_reference_lists_every_key():
 
 def test_generated_study_reference_lists_every_key():
     from chiptwin.study.metrics import CATALOGUE
-    from chiptwin.study.spec import ASSUMPTION_KEYS, AXIS_KEYS, STUDY_KEYS
+    from chiptwin.study.spec import AXIS_KEYS, STUDY_KEYS
+    from chiptwin.study.spec_sensitivity import ASSUMPTION_KEYS
 
     text = REF.study_markdown()
     assumption = text.split("## `[[study.assumption]]`", 1)[1].split("\n## ", 1)[0]

@@ -56,14 +56,12 @@ from pathlib import Path
 from typing import Any
 
 from chiptwin.config import Scenario, ScenarioError
-from chiptwin.config.fields import allowed_text
 from chiptwin.config.load import read_toml, scenario_from_dict
 from chiptwin.study.metrics import CATALOGUE, check_metric_applies
 from chiptwin.study.readers import (
     Errors,
     check_key,
     finite_pair,
-    in_rule,
     inline_table,
     keyed_table,
     pin_datasheet,
@@ -73,6 +71,7 @@ from chiptwin.study.readers import (
     unknown,
 )
 from chiptwin.study.sensitivity import Assumption, conditions
+from chiptwin.study.spec_sensitivity import assumptions_of
 
 #: Rows a study may hold: 10⁶ runs of the 0.1 s reference scene is ≈ 14 h on 2 cores, beyond
 #: any interactive use; more is refused before anything runs.
@@ -234,19 +233,8 @@ AXIS_KEYS: dict[str, str] = {
              "a budget",
     "zip": "true or false, default false; zipped axes advance together (same number of values)",
 }
-#: Every key of a ``[[study.assumption]]`` table (see :data:`STUDY_KEYS`).
-ASSUMPTION_KEYS: dict[str, str] = {
-    "key": "required; a numeric scenario key not on an axis, e.g. \"chip.pixel.read_noise_e\" "
-           "(in study.reference too: the ideal point keeps the reference's value in every "
-           "condition)",
-    "range": "required; [lo, hi], lo < hi, both inside the key's own range in the scenario "
-             "schema, with the base scenario's value inside [lo, hi] (the tornado's bars run "
-             "through it)",
-    "why": "required; text: why the value is not known and where the two ends come from",
-}
 _STUDY_KEYS = set(STUDY_KEYS)
 _AXIS_KEYS = set(AXIS_KEYS)
-_ASSUMPTION_KEYS = set(ASSUMPTION_KEYS)
 
 
 def load_study(path: str | Path, resolve_scenario=None) -> Study:
@@ -304,7 +292,7 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
         check_key(err, "study.reference", k, base_raw)
     requirements, confidence = _requirements(err, st, metrics, reference)
     kind = err.choice(st, "kind", KINDS, "budget")
-    assumptions = _assumptions(err, st, kind, axes, base_raw, str(scen_path))
+    assumptions = assumptions_of(err, st, kind, axes, base_raw, str(scen_path))
     study = Study(
         name=name, source=source, text=text if text is not None else json.dumps(raw),
         scenario_path=str(scen_path), base_raw=base_raw, seed=seed, replicates=replicates,
@@ -534,59 +522,6 @@ def _requirements(err: Errors, st: dict, metrics: tuple[str, ...], reference: di
     return tuple(out), confidence
 
 
-# ---------------------------------------------------------------- assumptions (kind sensitivity)
-
-
-def _assumptions(err: Errors, st: dict, kind: str, axes: tuple[Axis, ...], base_raw: dict,
-                 scenario_path: str) -> tuple[Assumption, ...]:
-    """The ``[[study.assumption]]`` tables, each checked against its key's own rule and the base
-    scenario's value (:class:`~chiptwin.study.sensitivity.Assumption`). A key also in
-    ``study.reference`` keeps that value in every condition's ideal point: the ideal does not
-    move with the assumption (an ideal converter has no INL whatever the chip's is)."""
-    tables = table_list(err, st, "assumption")
-    if kind != "sensitivity":
-        if tables:
-            err.fail("study.assumption", [t.get("key") for t in tables],
-                     'only a study of kind = "sensitivity" takes assumptions')
-        return ()
-    if not tables:
-        err.fail("study.assumption", dataclasses.MISSING,
-                 "a sensitivity study needs at least one [[study.assumption]]")
-    base = scenario_from_dict(json.loads(json.dumps(base_raw)), scenario_path)
-    out: list[Assumption] = []
-    for i, t in enumerate(tables):
-        taken = {a.key: "is on a [[study.axis]]: the study varies it already" for a in axes}
-        taken.update({a.key: "is listed twice" for a in out})
-        out.append(_assumption(err, f"study.assumption[{i}]", t, base_raw, base, taken))
-    return tuple(out)
-
-
-def _assumption(err: Errors, where: str, t: dict, base_raw: dict, base: Scenario,
-                taken: dict[str, str]) -> Assumption:
-    key, rule = keyed_table(err, where, t, _ASSUMPTION_KEYS, "chip.pixel.read_noise_e",
-                             base_raw)
-    if rule.metadata.get("choices") or rule.metadata.get("kind") not in (float, int):
-        err.fail(f"{where}.key", key, f"is not a number ({allowed_text(rule)}); an assumption "
-                 "spans a numeric range")
-    if key in taken:
-        err.fail(f"{where}.key", key, taken[key])
-    r = t.get("range", dataclasses.MISSING)
-    if not finite_pair(r):
-        err.fail(f"{where}.range", r, f"{key}: must be [lo, hi], two finite numbers")
-    if r[0] >= r[1]:
-        err.fail(f"{where}.range", r, f"{key}: lo must be below hi (the low end first)")
-    lo, hi = (in_rule(err, f"{where}.range", r, rule, key, x) for x in r)
-    ref = base
-    for part in key.split("."):
-        ref = getattr(ref, part)
-    if not lo <= ref <= hi:
-        err.fail(f"{where}.range", r, f"{key}: the base scenario's value {ref!r} is outside "
-                 "[lo, hi]; the tornado needs the reference inside (widen the range to hold it)")
-    why = t.get("why", dataclasses.MISSING)
-    if not isinstance(why, str) or not why.strip():
-        err.fail(f"{where}.why", why, f"{key}: say why the value is not known and where the "
-                 "two ends come from (text)")
-    return Assumption(key, lo, hi, ref, why.strip())
 
 
 def _with_design(err: Errors, study: Study) -> Study:

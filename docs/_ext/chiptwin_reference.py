@@ -261,7 +261,8 @@ def _bundled_text(name: str, study: bool = False) -> str:
 def study_markdown() -> str:
     """The study file format and the metric catalogue."""
     from chiptwin.study.metrics import CATALOGUE
-    from chiptwin.study.spec import ASSUMPTION_KEYS, AXIS_KEYS, STUDY_KEYS
+    from chiptwin.study.spec import AXIS_KEYS, STUDY_KEYS
+    from chiptwin.study.spec_sensitivity import ASSUMPTION_KEYS
 
     out = [HEADER.format(src="chiptwin/study/spec.py and chiptwin/study/metrics.py"),
            "(study-reference)=\n", "# Study file\n",
