@@ -49,7 +49,7 @@ STAGES = ("kinetics", "optics", "pixel", "adc", "dsp", "memory", "detection")
 # --- the frame-by-frame reader, patched in for the "frame" rows ----------------------------
 
 
-class OneStream(run_module._FrameReader):
+class OneStream(run_module.FrameReader):
     """The chip model's reader with the counts and the noise on one stream per chunk, as the
     public per-frame functions draw them (the runner gives the kTC, read and comparator normals
     a stream of their own so that fidelity levels share them; off here, for the bit-for-bit
@@ -98,12 +98,12 @@ def check_scene(s) -> None:
 @contextlib.contextmanager
 def reader(cls: type) -> Iterator[None]:
     """Run ``run``/``run_prepared`` with the reader ``cls`` while inside."""
-    saved = run_module._FrameReader
-    run_module._FrameReader = cls
+    saved = run_module.FrameReader
+    run_module.FrameReader = cls
     try:
         yield
     finally:
-        run_module._FrameReader = saved
+        run_module.FrameReader = saved
 
 
 # --- timing ---------------------------------------------------------------------------------
