@@ -41,10 +41,9 @@ from chiptwin.study.metrics import CATALOGUE, check_metric_applies
 from chiptwin.study.readers import (
     Errors,
     check_key,
-    finite_pair,
     in_rule,
     inline_table,
-    keyed_table,
+    numeric_range,
     table_list,
     unknown,
 )
@@ -349,19 +348,10 @@ def _parameters(err: Errors, st: dict, base_raw: dict, base, target) -> tuple[Fi
 
 def _parameter(err: Errors, where: str, t: dict, base_raw: dict, base,
                taken: dict[str, str]) -> FitParameter:
-    key, rule = keyed_table(err, where, t, set(PARAMETER_KEYS), "chip.pixel.read_noise_e",
-                            base_raw)
+    key, rule, r = numeric_range(err, where, t, set(PARAMETER_KEYS), base_raw, taken,
+                                 "a fitted key is a number or an integer, not a choice or a "
+                                 "switch")
     kind = rule.metadata.get("kind")
-    if rule.metadata.get("choices") or kind not in (float, int):
-        err.fail(f"{where}.key", key, f"is not a number ({allowed_text(rule)}); a fitted key "
-                 "is a number or an integer, not a choice or a switch")
-    if key in taken:
-        err.fail(f"{where}.key", key, taken[key])
-    r = t.get("range", dataclasses.MISSING)
-    if not finite_pair(r):
-        err.fail(f"{where}.range", r, f"{key}: must be [lo, hi], two finite numbers")
-    if r[0] >= r[1]:
-        err.fail(f"{where}.range", r, f"{key}: lo must be below hi (the low end first)")
     if kind is int and not all(float(x).is_integer() for x in r):
         err.fail(f"{where}.range", r, f"{key} is an integer: its range ends are integers")
     lo, hi = (float(in_rule(err, f"{where}.range", r, rule, key, x)) for x in r)

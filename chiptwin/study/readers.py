@@ -165,6 +165,25 @@ def keyed_table(err: Errors, where: str, table: dict, allowed: set[str], example
     return key, check_key(err, f"{where}.key", key, base_raw)
 
 
+def numeric_range(err: Errors, where: str, t: dict, allowed: set[str], base_raw: dict,
+                  taken: dict[str, str], what: str) -> tuple[str, dataclasses.Field, list]:
+    """A table that names a numeric scenario key and a range of it (a fitted key, an
+    assumption): the key (a number or an integer, not a choice or a switch; not ``taken``) and
+    ``[lo, hi]``, finite, low end first. Returns the key, its rule and the range; ``what`` says
+    in the refusal what the table is for."""
+    key, rule = keyed_table(err, where, t, allowed, "chip.pixel.read_noise_e", base_raw)
+    if rule.metadata.get("choices") or rule.metadata.get("kind") not in (float, int):
+        err.fail(f"{where}.key", key, f"is not a number ({allowed_text(rule)}); {what}")
+    if key in taken:
+        err.fail(f"{where}.key", key, taken[key])
+    r = t.get("range", dataclasses.MISSING)
+    if not finite_pair(r):
+        err.fail(f"{where}.range", r, f"{key}: must be [lo, hi], two finite numbers")
+    if r[0] >= r[1]:
+        err.fail(f"{where}.range", r, f"{key}: lo must be below hi (the low end first)")
+    return key, rule, r
+
+
 def finite_pair(r: Any) -> bool:
     """``[lo, hi]``: a list of two finite numbers (not booleans)."""
     return isinstance(r, list) and len(r) == 2 and all(

@@ -9,9 +9,8 @@ import json
 from typing import Any
 
 from chiptwin.config import Scenario
-from chiptwin.config.fields import allowed_text
 from chiptwin.config.load import scenario_from_dict
-from chiptwin.study.readers import Errors, finite_pair, in_rule, keyed_table, table_list
+from chiptwin.study.readers import Errors, in_rule, numeric_range, table_list
 from chiptwin.study.sensitivity import Assumption
 
 #: Every key of a ``[[study.assumption]]`` table (see :data:`chiptwin.study.spec.STUDY_KEYS`).
@@ -53,18 +52,8 @@ def assumptions_of(err: Errors, st: dict, kind: str, axes: tuple[Any, ...], base
 
 def _assumption(err: Errors, where: str, t: dict, base_raw: dict, base: Scenario,
                 taken: dict[str, str]) -> Assumption:
-    key, rule = keyed_table(err, where, t, _ASSUMPTION_KEYS, "chip.pixel.read_noise_e",
-                             base_raw)
-    if rule.metadata.get("choices") or rule.metadata.get("kind") not in (float, int):
-        err.fail(f"{where}.key", key, f"is not a number ({allowed_text(rule)}); an assumption "
-                 "spans a numeric range")
-    if key in taken:
-        err.fail(f"{where}.key", key, taken[key])
-    r = t.get("range", dataclasses.MISSING)
-    if not finite_pair(r):
-        err.fail(f"{where}.range", r, f"{key}: must be [lo, hi], two finite numbers")
-    if r[0] >= r[1]:
-        err.fail(f"{where}.range", r, f"{key}: lo must be below hi (the low end first)")
+    key, rule, r = numeric_range(err, where, t, _ASSUMPTION_KEYS, base_raw, taken,
+                                 "an assumption spans a numeric range")
     lo, hi = (in_rule(err, f"{where}.range", r, rule, key, x) for x in r)
     ref = base
     for part in key.split("."):
