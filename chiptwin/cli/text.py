@@ -59,6 +59,9 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
         ("chiptwin characterize pyro_1fmol", "the chip's EMVA 1288 datasheet (photon transfer)"),
         ("chiptwin characterize --from my_sensor.json", "a twin configured from a datasheet"),
         ("chiptwin characterize pyro_1fmol --adc", "the ADC's IEEE 1241 bench: DNL, INL, ENOB"),
+        ("chiptwin characterize --measured my_camera/", "a camera's EMVA 1288 data set, evaluated"),
+        ("chiptwin characterize --measured my_camera/ --pixel-pitch-um 7.4 --write-scenario "
+         "cam.toml", "and its twin, read through the same protocol"),
     ],
     "reads": [
         ("chiptwin reads call run.sff", "call a 454 run's reads; agreement with the instrument's"),
