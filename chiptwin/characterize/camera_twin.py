@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from chiptwin.characterize.datasheet import Datasheet
-from chiptwin.config import ScenarioError
+from chiptwin.config import Scenario, ScenarioError
 
 #: The converter's range of the camera's twin (choice: the schema's default 0 … 1 V; only the
 #: LSB in volts enters, through the capacitance that gives the measured gain). Unit: V.
@@ -90,12 +90,12 @@ def base_raw(d: Datasheet, name: str) -> dict[str, Any]:
 def scenario_values(d: Datasheet, doc: dict[str, Any], raw: dict[str, Any], source: str
                     ) -> dict[str, tuple[Any, float | None, str]]:
     """Scenario key → (value, standard error or None, the datasheet figure it comes from)."""
-    from chiptwin.config.datasheet import _Doc, datasheet_values
+    from chiptwin.config.datasheet import DatasheetDoc, datasheet_values
     from chiptwin.config.load import scenario_from_dict
 
     base = scenario_from_dict(copy.deepcopy(raw), source)
     cdoc = camera_doc(d, doc)
-    values = datasheet_values(_Doc(Path(source), cdoc), base)
+    values = datasheet_values(DatasheetDoc(Path(source), cdoc), base)
     out: dict[str, tuple[Any, float | None, str]] = {}
     shifts: dict[str, float] = dict.fromkeys(values, 0.0)
     for fig in PROPAGATED:
@@ -107,7 +107,7 @@ def scenario_values(d: Datasheet, doc: dict[str, Any], raw: dict[str, Any], sour
         if fig == "dark_offset":
             moved["parameters"]["reset_level"]["value"] = moved["parameters"][fig]["value"]
         try:
-            shifted = datasheet_values(_Doc(Path(source), moved), base)
+            shifted = datasheet_values(DatasheetDoc(Path(source), moved), base)
         except ScenarioError:  # a 1σ step past a consistency check: that share is not stated
             continue
         for key, (value, _) in values.items():
@@ -119,8 +119,8 @@ def scenario_values(d: Datasheet, doc: dict[str, Any], raw: dict[str, Any], sour
     return out
 
 
-def write_scenario(d: Datasheet, doc: dict[str, Any], path: str | Path) -> dict[str, Any]:
-    """Write the camera's twin as a scenario file; returns its raw table (as loaded).
+def write_scenario(d: Datasheet, doc: dict[str, Any], path: str | Path) -> Scenario:
+    """Write the camera's twin as a scenario file; returns it, loaded and checked.
 
     Refused (:class:`ScenarioError`) before anything is written: a datasheet without the pixel
     pitch (the data set does not carry it), a value the twin's model cannot take.
@@ -142,11 +142,11 @@ def write_scenario(d: Datasheet, doc: dict[str, Any], path: str | Path) -> dict[
         _, section, leaf = key.split(".")
         raw["chip"][section][leaf] = value
     text = toml_text(raw, values, d)
-    scenario_from_dict(copy.deepcopy(raw), str(path))  # what is written loads
+    s = scenario_from_dict(copy.deepcopy(raw), str(path))  # what is written loads
     tmp = path.with_name(f".{path.name}.tmp")
     tmp.write_text(text, encoding="utf-8")
     tmp.replace(path)
-    return raw
+    return s
 
 
 def _toml_value(v: Any) -> str:
@@ -213,12 +213,10 @@ def replay_twin(c, path: str | Path, seed: int | None = None):
     from chiptwin.characterize.datasheet import evaluate_measurement
     from chiptwin.characterize.overlay import Z_FOLLOWS, curves, findings
     from chiptwin.characterize.replay import ReplayPlan, replay
-    from chiptwin.config.load import scenario_from_dict
     from chiptwin.twin.scene import stage_rng
 
     d = c.datasheet
-    raw = write_scenario(d, c.to_json(), path)
-    s = scenario_from_dict(raw, str(path))
+    s = write_scenario(d, c.to_json(), path)
     seed = s.scenario.seed if seed is None else seed
     m = d.measurement
     twin = replay(s, ReplayPlan.from_measurement(m), stage_rng(seed, "characterize.replay"))

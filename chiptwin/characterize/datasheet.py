@@ -282,18 +282,29 @@ def _photo_electrons_at_saturation(bench: Bench, m: Measurement, dark_e_per_s: f
     return bench.saturation_e * photo_rate / (photo_rate + dark_e_per_s)
 
 
-def _notes(m: Measurement, bench: Bench, flags: dict[str, bool], sigma_y: Figure,
-           gain: float) -> list[str]:
-    cam, notes = m.camera, []
+def regime_notes(flags: dict[str, bool], sigma_y: Figure, why: str = "",
+                 remedy: str = "") -> list[str]:
+    """The notes every datasheet leads with when they hold: the quantisation regime (the
+    chip's own ``why`` and ``remedy`` around the standard's statement) and a saturation the
+    series does not reach."""
+    notes = []
     if flags["quantisation_regime"]:
         notes.append(
             f"QUANTISATION REGIME: the temporal dark noise σ_y.dark = {sigma_y.value:.3g} DN is "
-            f"below {ev.QUANTISATION_REGIME_DN} DN; the ADC's rounding, not the pixel, sets the "
-            "noise floor, and K and σ_d are biased (EMVA 1288 Release 4.0 Linear). A finer ADC LSB "
-            "(more bits over the same range) or more gain moves the chip out of it.")
+            f"below {ev.QUANTISATION_REGIME_DN} DN; {why}K and σ_d are biased (EMVA 1288 Release "
+            f"4.0 Linear).{remedy}")
     if not flags["saturation_reached"]:
         notes.append("The temporal variance has no maximum inside the series: saturation is the "
                      "last point, a lower bound.")
+    return notes
+
+
+def _notes(m: Measurement, bench: Bench, flags: dict[str, bool], sigma_y: Figure,
+           gain: float) -> list[str]:
+    cam = m.camera
+    notes = regime_notes(flags, sigma_y, "the ADC's rounding, not the pixel, sets the noise "
+                         "floor, and ", " A finer ADC LSB (more bits over the same range) or "
+                         "more gain moves the chip out of it.")
     m_cms = cam.cms_samples
     quant = 2 * pixel.quantization_var_of_mean(m_cms, bench.sensor.read_noise_e * gain)
     notes.append(

@@ -99,7 +99,7 @@ def origin_slope(x: ArrayLike, y: ArrayLike, var_y: ArrayLike) -> tuple[float, f
 
 # --- photon transfer ---------------------------------------------------------------------------
 
-def _signal(t: TemporalSeries) -> tuple[NDArray, NDArray]:
+def signal(t: TemporalSeries) -> tuple[NDArray, NDArray]:
     """``μ_y − μ_y.dark`` and its variance per point. Unit: DN, DN²."""
     y = t.column("bright", "mean") - t.column("dark", "mean")
     var = t.column("bright", "mean_se") ** 2 + t.column("dark", "mean_se") ** 2
@@ -120,14 +120,14 @@ def saturation_index(t: TemporalSeries) -> int:
 
 def saturation_dn(t: TemporalSeries) -> float:
     """``μ_y.sat − μ_y.dark`` at saturation. Unit: DN."""
-    return float(_signal(t)[0][saturation_index(t)])
+    return float(signal(t)[0][saturation_index(t)])
 
 
 def sensitivity_range(t: TemporalSeries, i_sat: int) -> slice:
     """The points of the K and R regressions: first to the last with
     ``μ_y − μ_y.dark ≤ 70 %`` of its saturation value, up to saturation (past it the dark signal
     keeps growing under a clipped output, and ``μ_y − μ_y.dark`` falls back into the range)."""
-    y, _ = _signal(t)
+    y, _ = signal(t)
     below = np.flatnonzero(y[: i_sat + 1] <= SENSITIVITY_TOP * y[i_sat])
     return slice(0, int(below.max()) + 1 if below.size else 1)
 
@@ -135,7 +135,7 @@ def sensitivity_range(t: TemporalSeries, i_sat: int) -> slice:
 def system_gain(t: TemporalSeries, i_sat: int) -> tuple[float, float]:
     """K, the photon-transfer slope, and its standard error. Unit: DN/e⁻."""
     sl = sensitivity_range(t, i_sat)
-    x, _ = _signal(t)
+    x, _ = signal(t)
     y, var = _noise(t)
     return origin_slope(x[sl], y[sl], var[sl])
 
@@ -143,7 +143,7 @@ def system_gain(t: TemporalSeries, i_sat: int) -> tuple[float, float]:
 def responsivity(t: TemporalSeries, i_sat: int) -> tuple[float, float]:
     """R = K·η, the sensitivity slope, and its standard error. Unit: DN/photon."""
     sl = sensitivity_range(t, i_sat)
-    y, var = _signal(t)
+    y, var = signal(t)
     return origin_slope(t.mu_p[sl], y[sl], var[sl])
 
 
@@ -151,7 +151,7 @@ def half_saturation_exposure(t: TemporalSeries) -> float:
     """Exposure time at which ``μ_y − μ_y.dark`` is half its saturation value (linear
     interpolation along the series): the spatial series' exposure. Unit: s."""
     i_sat = saturation_index(t)
-    y, _ = _signal(t)
+    y, _ = signal(t)
     target = 0.5 * y[i_sat]
     ys, ts = y[: i_sat + 1], t.t_exp_s[: i_sat + 1]
     order = np.argsort(ys, kind="stable")
@@ -236,7 +236,7 @@ def linearity(t: TemporalSeries, i_sat: int) -> Linearity:
     """Weighted (1/y) straight line of ``μ_y − μ_y.dark`` on ``μ_p`` between 5 % and 95 % of
     saturation, on the rising part of the series (up to saturation), and the relative deviation
     of every point from it."""
-    y, _ = _signal(t)
+    y, _ = signal(t)
     lo, hi = LINEARITY_RANGE[0] * y[i_sat], LINEARITY_RANGE[1] * y[i_sat]
     rising = y[: i_sat + 1]
     first, last = int(np.flatnonzero(rising >= lo).min()), int(np.flatnonzero(rising <= hi).max())

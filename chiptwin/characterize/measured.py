@@ -21,9 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
-from chiptwin.characterize import evaluate as ev
 from chiptwin.characterize.bench import Progress
-from chiptwin.characterize.datasheet import Datasheet, curves, evaluate_measurement, fit_ranges
+from chiptwin.characterize.datasheet import (
+    Datasheet,
+    curves,
+    evaluate_measurement,
+    fit_ranges,
+    regime_notes,
+)
 from chiptwin.characterize.descriptor import (
     Descriptor,
     DescriptorError,
@@ -199,15 +204,7 @@ def conditions(m: Measurement) -> dict:
 
 
 def _notes(m: Measurement, e) -> list[str]:
-    cam, notes = m.camera, []
-    if e.flags["quantisation_regime"]:
-        notes.append(
-            f"QUANTISATION REGIME: the temporal dark noise σ_y.dark = {e.sigma_y.value:.3g} DN is "
-            f"below {ev.QUANTISATION_REGIME_DN} DN; K and σ_d are biased (EMVA 1288 Release 4.0 "
-            "Linear).")
-    if not e.flags["saturation_reached"]:
-        notes.append("The temporal variance has no maximum inside the series: saturation is the "
-                     "last point, a lower bound.")
+    cam, notes = m.camera, regime_notes(e.flags, e.sigma_y)
     notes.append(f"Measured by the camera: the data set {cam.descriptor} (EMVA 1288 release "
                  f"{cam.release}, {cam.adc_bits}-bit images of {cam.cols} × {cam.rows}); DN is "
                  "the camera's digital number; σ_d subtracts the standard's σ²_q = 1/12 DN².")

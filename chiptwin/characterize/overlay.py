@@ -60,8 +60,10 @@ def _col(m: Measurement, which: str, attr: str) -> NDArray[np.float64]:
 
 
 def _signal(m: Measurement) -> tuple[NDArray, NDArray]:
-    y = _col(m, "bright", "mean") - _col(m, "dark", "mean")
-    return y, np.hypot(_col(m, "bright", "mean_se"), _col(m, "dark", "mean_se"))
+    """``μ_y − μ_y.dark`` and its standard error (:func:`chiptwin.characterize.evaluate.signal`).
+    Unit: DN."""
+    y, var = ev.signal(m.temporal)
+    return y, np.sqrt(var)
 
 
 def _snr(m: Measurement) -> tuple[NDArray, NDArray]:
@@ -90,7 +92,7 @@ def curves(measured: Measurement, twin: Measurement) -> list[Curve]:
     in_fit = np.zeros(n, bool)
     in_fit[fit.fit_range] = True
     out = []
-    mu_y = _col(measured, "bright", "mean") - _col(measured, "dark", "mean")
+    mu_y, _ = _signal(measured)
     t_exp, mu_p = measured.temporal.t_exp_s, measured.temporal.mu_p
     for name, x, xl, yl, get, mask in (
         ("photon transfer", mu_y, "μ_y − μ_y.dark (DN)", "σ²_y (DN²)",

@@ -67,7 +67,7 @@ def _fields(cls: type) -> dict[str, dataclasses.Field]:
 _FIELDS = {"chip.pixel": _fields(Pixel), "chip.adc": _fields(Adc)}
 
 
-class _Doc:
+class DatasheetDoc:
     """A parsed datasheet with checked access to its figures."""
 
     def __init__(self, path: Path, doc: Any) -> None:
@@ -113,7 +113,7 @@ class _Doc:
         raise ScenarioError(self.source, key, value, allowed)
 
 
-def read_datasheet(path: Path) -> _Doc:
+def read_datasheet(path: Path) -> DatasheetDoc:
     """Parse a datasheet file; unreadable or malformed files are :class:`ScenarioError`."""
     try:
         text = path.read_bytes().decode("utf-8")
@@ -124,7 +124,7 @@ def read_datasheet(path: Path) -> _Doc:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
         raise ScenarioError(str(path), "(file)", str(path), f"must be valid JSON ({exc})") from None
-    return _Doc(path, doc)
+    return DatasheetDoc(path, doc)
 
 
 def resolve_path(value: Any, source: str) -> Path:
@@ -184,7 +184,7 @@ def _same(a: Any, b: Any) -> bool:
     return math.isclose(a, b, rel_tol=1e-9, abs_tol=0.0)
 
 
-def datasheet_values(doc: _Doc, s: Scenario) -> dict[str, tuple[Any, str]]:
+def datasheet_values(doc: DatasheetDoc, s: Scenario) -> dict[str, tuple[Any, str]]:
     """Scenario key → (value, the datasheet key it comes from), every value checked."""
     for key in REQUIRED:
         if doc.figure(key) is None:
@@ -262,7 +262,7 @@ def full_well_at_saturation(e_sat: float, dark_e: float, prnu_frac: float) -> fl
     return full
 
 
-def _dark_at_saturation(doc: _Doc) -> float:
+def _dark_at_saturation(doc: DatasheetDoc) -> float:
     """Dark charge in the well at the saturation exposure: μ_e.sat counts photo-electrons only.
     ``μ_I · μ_p.sat / (irradiance · pixel area)`` when the datasheet gives them, else 0.
     Unit: e⁻."""
@@ -275,7 +275,7 @@ def _dark_at_saturation(doc: _Doc) -> float:
     return dark * p_sat / (irr * pitch * pitch)
 
 
-def _read_noise(doc: _Doc, s: Scenario, cap_fF: float, gain: float) -> float:
+def _read_noise(doc: DatasheetDoc, s: Scenario, cap_fF: float, gain: float) -> float:
     """Read noise per sample σ_r whose CMS dark frame has the datasheet's temporal dark noise.
 
     The datasheet's σ_y.dark (DN; else ``K²σ_d² + 1/12``: EMVA's σ_d removes one LSB²/12) is the
@@ -326,7 +326,7 @@ def _read_noise(doc: _Doc, s: Scenario, cap_fF: float, gain: float) -> float:
     return float(brentq(excess, grid[i], grid[i + 1], xtol=1e-12, rtol=1e-12))
 
 
-def _dark(doc: _Doc, s: Scenario) -> dict[str, tuple[Any, str]]:
+def _dark(doc: DatasheetDoc, s: Scenario) -> dict[str, tuple[Any, str]]:
     """Dark current density, doubling temperature and DSNU."""
     px, out = s.chip.pixel, {}
     doubling = doc.figure("doubling_temperature")
@@ -353,7 +353,7 @@ def _dark(doc: _Doc, s: Scenario) -> dict[str, tuple[Any, str]]:
     return out
 
 
-def _check_ranges(doc: _Doc, values: dict[str, tuple[Any, str]]) -> None:
+def _check_ranges(doc: DatasheetDoc, values: dict[str, tuple[Any, str]]) -> None:
     """Every derived value against its scenario field's rule, reported on the datasheet's key."""
     from chiptwin.config.fields import check_value
 
@@ -367,7 +367,7 @@ def _check_ranges(doc: _Doc, values: dict[str, tuple[Any, str]]) -> None:
                      f"gives {key} = {value:.6g}, which {allowed_text(field)}")
 
 
-def _origin_value(doc: _Doc, origin: str) -> Any:
+def _origin_value(doc: DatasheetDoc, origin: str) -> Any:
     parts = origin.split(".")
     node: Any = {"parameters": doc.params, "camera": doc.camera, "conditions": doc.conditions}
     for part in parts:
@@ -375,7 +375,7 @@ def _origin_value(doc: _Doc, origin: str) -> Any:
     return node
 
 
-def _check_consistency(doc: _Doc, s: Scenario, gain: float, bits: int,
+def _check_consistency(doc: DatasheetDoc, s: Scenario, gain: float, bits: int,
                        reset: float | None) -> None:
     """Figures that contradict each other, and a saturation beyond the ADC's range."""
     qe, e_sat = doc.figure("quantum_efficiency") / 100.0, doc.figure("saturation_capacity")

@@ -28,7 +28,6 @@ from chiptwin.study.calibrate_fit import (
     DE_ATOL_CHI2,
     SCALE_ROUNDS,
     FitResult,
-    Problem,
     evolve,
     jacobian_at,
     polish,
@@ -64,7 +63,7 @@ def measured_of(cal: Any) -> Measured:
                     np.asarray(t.x_values, float), f"{t.x} [{t.units[0]}]", weighted)
 
 
-class Evaluator(Problem):
+class Evaluator:
     """The calibration as the fit sees it: u → residuals, every candidate evaluated once.
 
     Candidates are keyed by the fitted keys' exact values (:func:`candidate_key`); those stored

@@ -83,10 +83,6 @@ def comparison(t: Any) -> Compared:
     return Compared(int(sensitivity_range(t, i_sat).stop), i_sat, int(np.asarray(t.mu_p).size))
 
 
-#: :func:`chiptwin.study.calibrate_eval.model_of` takes the comparison under this name.
-_masks = comparison
-
-
 def used_points(t: Any) -> NDArray[np.bool_]:
     """Photon-transfer points whose bright pair enters the fit through K and R: the standard's
     range (first point to 70 % of saturation)."""

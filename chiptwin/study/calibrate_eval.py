@@ -53,7 +53,7 @@ class Model:
     replicates: int = 1
     plan: Any = field(default=None, repr=False)
     max_pixels: int | None = None
-    masks: Any = field(default=None, repr=False)
+    compared: Any = field(default=None, repr=False)
 
 
 @dataclass(frozen=True)
@@ -95,10 +95,10 @@ def model_of(study: Any) -> Model:
                   scenario_path=study.scenario_path, keys=cal.keys, seed=study.seed,
                   fixed_pattern_seed=pinned if pinned >= 0 else chip_seed(study.seed))
     if t.kind == "emva1288":
-        from chiptwin.study.calibrate_emva import _masks, replay_plan
+        from chiptwin.study.calibrate_emva import comparison, replay_plan
 
         return Model("emva1288", **common, plan=replay_plan(t.measurement),
-                     max_pixels=t.max_pixels, masks=_masks(t.measurement.temporal))
+                     max_pixels=t.max_pixels, compared=comparison(t.measurement.temporal))
     if t.kind == "adc1241":
         return Model("adc1241", **common, plan=t.plan)
     if t.series:
@@ -183,7 +183,7 @@ def _emva(m: Model, params: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
 
     seed = row_seed(m.seed, point_id({}), 0)
     s = point_scenario(m, params, seed, m.fixed_pattern_seed)
-    return replay_stats(s, m.plan, stage_rng(seed, "calibrate.replay"), m.max_pixels, m.masks)
+    return replay_stats(s, m.plan, stage_rng(seed, "calibrate.replay"), m.max_pixels, m.compared)
 
 
 def _adc(m: Model, params: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:

@@ -38,7 +38,7 @@ import inspect
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -79,7 +79,7 @@ PROFILE_STEPS: int = 12
 PROFILE_MIN_STEP_U: float = 2e-3
 
 
-class Problem:
+class Problem(Protocol):
     """What the fit needs of a calibration (:class:`chiptwin.study.calibrate.Evaluator`)."""
 
     k: int
@@ -88,7 +88,7 @@ class Problem:
     def residuals(self, us: list[NDArray[np.float64]], stage: str
                   ) -> list[NDArray[np.float64] | None]:
         """The scaled residual vector of each candidate (None: invalid), evaluated together."""
-        raise NotImplementedError
+        ...
 
 
 @dataclass
