@@ -216,3 +216,21 @@ def test_fit_wraps_long_lines_under_their_indent():
     _lines_fit(text)
     assert lines[0] == "short" and lines[1].startswith("    word")
     assert lines[2].startswith("      word")
+
+
+def test_study_help_names_each_what_if_with_an_example_that_validates(capsys):
+    """``chiptwin study --help`` lists --set, --axis, --given, --replicates and --quick, and
+    its what-if example is a study the parser and the loader accept (nothing run)."""
+    from chiptwin.config.catalog import resolve_scenario, resolve_study
+    from chiptwin.study.whatif import Overrides, study_with
+
+    assert main(["study", "--help"]) == 0
+    out = capsys.readouterr().out
+    for flag in ("--set", "--axis", "--given", "--replicates", "--quick"):
+        assert re.search(rf"^  {flag} ", out, flags=re.M), flag
+    example = next(cmd for cmd, _ in cli_text.EXAMPLES["study"] if "--given" in cmd).split()
+    args = build_parser().parse_args(example[1:])
+    study = study_with(resolve_study(args.study), Overrides(
+        tuple(args.set), tuple(args.axis), tuple(args.given), args.replicates, args.quick),
+        resolve_scenario)
+    assert {a.key for a in study.given_axes} >= {"chip.pixel.qe", "assay.dna_fmol"}

@@ -148,7 +148,33 @@ def build_parser() -> argparse.ArgumentParser:
                          f"worker; in [1, {MAX_IN_FLIGHT}]: each is a future the client holds)")
     st.add_argument("--fresh", action="store_true", help="discard stored rows and start over")
     st.add_argument("--quiet", action="store_true", help="no progress")
+    _whatif_args(st)
     return p
+
+
+def _whatif_args(st: argparse.ArgumentParser) -> None:
+    """The study re-asked (chiptwin.study.whatif): each value checked against its key's range
+    before anything runs; the study as run is written to OUT/study.toml."""
+    from chiptwin.study.whatif import QUICK_AXIS_VALUES, QUICK_REPLICATES
+
+    w = st.add_argument_group("what-ifs (the study as run: OUT/study.toml; default OUT: "
+                              "out/NAME-DIGEST)")
+    w.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="a key of the study's base scene, e.g. --set chip.adc.comparator_noise_uV"
+                        "=45 (repeatable; a condition of that key is pinned at the value)")
+    w.add_argument("--axis", action="append", default=[], metavar="KEY=V1,V2|KEY=LO:HI:STEP",
+                   help="the values of the axis of KEY, e.g. --axis chip.adc.bits=12:16:1 (a "
+                        "condition stays one); a new KEY is a budget axis after the others")
+    w.add_argument("--given", action="append", default=[], metavar="KEY=V1,V2",
+                   help="a condition: one answer per value, e.g. --given chip.pixel.diode_w_um="
+                        "50,100 (replaces the axis of KEY, or adds one; KEY1+KEY2=… gives both "
+                        "keys the values together, e.g. a square diode's two sides)")
+    w.add_argument("--replicates", type=int, metavar="N", help="runs per point (a bisection's "
+                   "cap)")
+    w.add_argument("--quick", action="store_true",
+                   help=f"a first look: at most {QUICK_REPLICATES} replicates, each budget axis "
+                        f"thinned to {QUICK_AXIS_VALUES} values (its ends kept), the conditions "
+                        "whole; every output is labelled QUICK LOOK")
 
 
 def _scenario_args(p: argparse.ArgumentParser) -> None:
@@ -309,12 +335,19 @@ def _validate_study(name: str, verbose: bool = False) -> int:
     from chiptwin.study import load_study
     from chiptwin.study.engine import Plan, estimate_s
 
-    plan = Plan(load_study(_study_path(name), resolve_scenario))
-    study = plan.study
+    study = load_study(_study_path(name), resolve_scenario)
+    if study.kind == "optimize":  # a search, not a grid: its space, budget and wall time
+        from chiptwin.study.optimize import describe
+
+        print(fit([describe(study, os.cpu_count() or 1) + _bundled_note(name, study=True)]))
+        return 0
+    plan = Plan(study)
     n, bad = len(plan.points), len(plan.invalid)
     print(f"{study.name}: ok ({n} points × {study.replicates} replicates, "
           f"{len(plan.references)} reference point(s), search {study.search}"
           f"{_bundled_note(name, study=True)})")
+    if study.quick:
+        print(fit([f"  QUICK LOOK: {study.quick}"]))
     if bad:
         print(f"  {bad} of {n} points are inconsistent and will be recorded as invalid, not run:")
         print("\n".join(invalid_summary(plan.invalid.values())))
@@ -361,9 +394,10 @@ def _list() -> int:
 
 def _study(args: argparse.Namespace) -> int:
     from chiptwin.config.outputs import check_out_dir, output_lock
-    from chiptwin.study import load_study, run_study
-    from chiptwin.study.outputs import answer_lines, write_study_outputs
+    from chiptwin.study import run_study
+    from chiptwin.study.files import write_atomic
     from chiptwin.study.store import DB_NAME
+    from chiptwin.study.whatif import study_toml, study_with
 
     if args.workers is not None and not 1 <= args.workers <= 1024:
         raise ScenarioError("chiptwin", "--workers", args.workers, "must be in [1, 1024]")
@@ -378,13 +412,16 @@ def _study(args: argparse.Namespace) -> int:
     if not 0 < args.worker_timeout <= MAX_WORKER_TIMEOUT_S:  # NaN too
         raise ScenarioError("chiptwin", "--worker-timeout", args.worker_timeout,
                             f"must be in (0, {MAX_WORKER_TIMEOUT_S:g}] seconds")
-    study = load_study(_study_path(args.study), resolve_scenario)
+    study = study_with(_study_path(args.study), _overrides(args), resolve_scenario, args.study)
+    from chiptwin.study.outputs import answer_lines, write_study_outputs  # after a refusal's line
     out = check_out_dir(args.out or Path("out") / study.name, marker=DB_NAME)
     with output_lock(out):
         new = not out.exists()
         out.mkdir(exist_ok=True)
         (out / "study.json").unlink(missing_ok=True)  # written last: its presence = complete
-        progress = None if args.quiet else _Progress("rows", after_s=0.0)
+        write_atomic(out / "study.toml", study_toml(study))  # runs as it is, resumes this
+        bounded = getattr(study, "search", "") == "bisect" or getattr(study, "stop_early", False)
+        progress = None if args.quiet else _Progress("rows", after_s=0.0, at_most=bounded)
         try:
             with _working(progress):
                 result = run_study(study, workers=args.workers, scheduler=args.scheduler,
@@ -393,6 +430,8 @@ def _study(args: argparse.Namespace) -> int:
                                    task_rows=args.rows_per_task, in_flight=args.in_flight,
                                    scheduler_file=args.scheduler_file,
                                    worker_timeout_s=args.worker_timeout)
+            if progress is not None:
+                progress.finish()  # the closing line of a study that stopped early
         except ScenarioError:  # refused before any row ran (scheduler, resumption): no trace
             if new:
                 shutil.rmtree(out, ignore_errors=True)
@@ -400,10 +439,19 @@ def _study(args: argparse.Namespace) -> int:
         write_study_outputs(result, out)
     print(fit(answer_lines(result.summary)))
     runs = result.summary["runs"]
-    print(f"  {runs['total']} runs ({runs['computed']} computed now, {runs['resumed']} resumed) "
-          f"in {result.summary['wall_time_s']:.1f} s; outputs in {_shown(out)}/ (study.json, "
-          "results.csv, results.sqlite, report.md)")
+    print(fit([f"  {runs['total']} runs ({runs['computed']} computed now, {runs['resumed']} "
+               f"resumed) in {result.summary['wall_time_s']:.1f} s; outputs in {_shown(out)}/ "
+               "(study.json, results.csv, results.sqlite, report.md, study.toml: the study as "
+               "run)"]))
     return 0
+
+
+def _overrides(args: argparse.Namespace):
+    """The what-ifs of ``chiptwin study`` (:class:`chiptwin.study.whatif.Overrides`)."""
+    from chiptwin.study.whatif import Overrides
+
+    return Overrides(tuple(args.set), tuple(args.axis), tuple(args.given), args.replicates,
+                     args.quick)
 
 
 def _announcer(progress: _Progress | None):

@@ -76,6 +76,10 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
     ],
     "study": [
         ("chiptwin study adc_bits_pyro", "fewest ADC bits for the assay; resumes if interrupted"),
+        ("chiptwin study adc_bits_pyro --set chip.adc.comparator_noise_uV=45 --given "
+         "chip.pixel.qe=0.3,0.6", "re-asked for your comparator, one answer per DNA amount "
+         "and QE"),
+        ("chiptwin study adc_bits_pyro --quick", "a first look: 10 replicates, 4 bit depths"),
         ("chiptwin study frame_memory --workers 2", "two local processes"),
         ("chiptwin study lod_pyro --scheduler tcp://head:8786", "on a Dask cluster"),
         ("chiptwin study lod_pyro --scheduler-file ~/sched.json",

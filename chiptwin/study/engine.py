@@ -97,6 +97,14 @@ def run_study(study: Study | str | Path, workers: int | None = None,
                                        scheduler_file=scheduler_file,
                                        worker_timeout_s=worker_timeout_s)
         return StudyResult(study, table, summary["answer"], summary)
+    if study.kind == "optimize":  # a design search with Optuna (chiptwin.study.optimize)
+        from chiptwin.study.optimize import run_optimize
+
+        table, summary = run_optimize(study, workers, scheduler, db, fresh, progress,
+                                      announce, in_flight=in_flight,
+                                      scheduler_file=scheduler_file,
+                                      worker_timeout_s=worker_timeout_s)
+        return StudyResult(study, table, summary["answer"], summary)
     plan = Plan(study)  # validates every point before anything runs
     # a bad scheduler fails before the store
     executor = make_executor(workers, scheduler, in_flight, scheduler_file, worker_timeout_s)
@@ -242,6 +250,7 @@ class _Runner:
             self.total = (len(plan.points) + len(plan.references)) * cap
             self.ensure([(pid, cap) for pid in refs] + [(p.id, cap) for p in plan.points])
             return {p.id: {"n": cap, "confidence": study.confidence} for p in plan.points}
+        self.total = (len(plan.points) + len(plan.references)) * cap  # at most: it stops early
         self.ensure([(pid, cap) for pid in refs])
         if study.search == "grid":
             return self.stop_early()
@@ -387,6 +396,7 @@ def summarise(plan: Plan, table: list[dict], searched: dict[str, dict]) -> dict[
     counts = {s: sum(r["status"] == s for r in table) for s in ("ok", "invalid", "error")}
     summary = {
         "study": study.name, "description": study.description, "source": study.source,
+        "quick": study.quick, "asked": study.asked,
         "scenario": study.scenario_path, "seed": study.seed, "search": study.search,
         "replicates": study.replicates, "vary_chip": study.vary_chip,
         "reference": study.reference, "confidence": study.confidence,
@@ -463,16 +473,23 @@ def _design_effects(points: list[dict]) -> str | None:
 
 
 def _answer(study: Study, group: list[Point], status_of: dict) -> dict[str, Any]:
+    """The answer of one condition (a combination of the given axes' values), labelled with it:
+    ``given`` (key: value) and ``condition`` (``key = value, …``, "" without given axes)."""
     given = {a.key: v for a, v in zip(study.given_axes, group[0].given, strict=False)}
+    return {"given": given, "condition": ", ".join(f"{k} = {v}" for k, v in given.items()),
+            **_answer_of(study, group, status_of)}
+
+
+def _answer_of(study: Study, group: list[Point], status_of: dict) -> dict[str, Any]:
     if not study.requirements:
-        return {"given": given, "point": None, "statement": "no requirement: nothing to answer"}
+        return {"point": None, "statement": "no requirement: nothing to answer"}
     decisions = [status_of[p.id]["status"] for p in group]
     # a point counts only if nothing costlier along its line fails (monotone from it on)
     bad = {v["pass_at"] for v in _line_violations(study, group, status_of)}
     usable = [d if i not in bad else "fail" for i, d in enumerate(decisions)]
     i = search.cheapest([p.cost for p in group], usable)
     if i is None:
-        return {"given": given, "point": None, "statement": "no point meets " + " and ".join(
+        return {"point": None, "statement": "no point meets " + " and ".join(
             map(str, study.requirements)) + f" at {study.confidence:.0%} confidence"}
     p, est = group[i], status_of[group[i].id]["estimates"]
     bounds = {}
@@ -481,7 +498,7 @@ def _answer(study: Study, group: list[Point], status_of: dict) -> dict[str, Any]
         bound = e.upper if q.op == "<=" else e.lower
         bounds[str(q)] = {"estimate": e.value, "bound": bound, "n": e.n, "method": e.method,
                           **({"k": e.k, "trials": e.trials} if e.k is not None else {})}
-    return {"given": given, "point": p.params, "id": p.id, "bounds": bounds,
+    return {"point": p.params, "id": p.id, "bounds": bounds,
             "statement": statement(study, p, est, status_of[p.id]["confidence"])}
 
 

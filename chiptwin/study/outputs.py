@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +29,10 @@ def write_study_outputs(result: StudyResult, out: Path) -> None:
         from chiptwin.study.calibrate_outputs import write_calibrate_outputs
 
         return write_calibrate_outputs(result, out)
+    if result.summary.get("kind") == "optimize":
+        from chiptwin.study.optimize_outputs import write_optimize_outputs
+
+        return write_optimize_outputs(result, out)
     write_atomic(out / "results.csv", results_csv(result))
     plots = make_plots(result.summary, out)
     if "sensitivity" in result.summary:
@@ -64,12 +69,14 @@ def answer_lines(summary: dict[str, Any]) -> list[str]:
         from chiptwin.study.calibrate_outputs import answer_lines as calibrate_lines
 
         return calibrate_lines(summary)
-    lines = []
+    if summary.get("kind") == "optimize":
+        from chiptwin.study.optimize_outputs import answer_lines as optimize_lines
+
+        return optimize_lines(summary)
+    lines = [quick_line(summary)] if summary.get("quick") else []
     at_reference = _reference_values(summary)
     for a in summary["answer"]:
-        shown = {k: v for k, v in a["given"].items() if at_reference.get(k, v) != v}
-        given = ", ".join(f"{k} = {v}" for k, v in shown.items()) or (
-            "reference" if at_reference else "")
+        given = condition_label(a["given"], at_reference)
         lines.append((f"[{given}] " if given else "") + a["statement"])
     if "sensitivity" in summary:
         lines.append("SENSITIVITY: " + summary["sensitivity"]["verdict"])
@@ -85,6 +92,21 @@ def answer_lines(summary: dict[str, Any]) -> list[str]:
     return lines
 
 
+def quick_line(summary: dict[str, Any]) -> str:
+    """What a ``--quick`` study shrank, said before its answers."""
+    return (f"QUICK LOOK ({summary['quick']}): a first look, not the study's answer; run it "
+            "without --quick for that")
+
+
+def condition_label(given: dict[str, Any], at_reference: dict[str, Any] | None = None) -> str:
+    """A condition as ``key = value, …`` (every given axis); a sensitivity study's assumptions
+    are named only where moved from their reference value ("reference" where none is)."""
+    ref = at_reference or {}
+    own = [f"{k} = {v}" for k, v in given.items() if k not in ref]
+    moved = [f"{k} = {v}" for k, v in given.items() if k in ref and ref[k] != v]
+    return ", ".join(own + (moved or (["reference"] if ref else [])))
+
+
 def _reference_values(summary: dict[str, Any]) -> dict[str, Any]:
     """A sensitivity study's assumptions at their reference values (labels name only the
     assumption moved from it); ``{}`` for a budget study."""
@@ -92,9 +114,48 @@ def _reference_values(summary: dict[str, Any]) -> dict[str, Any]:
         "assumptions", [])}
 
 
+@dataclass(frozen=True)
+class Line:
+    """One line of a metric-against-axis plot: one condition (the given axes' values, and the
+    other budget axes' where there are several), its points, and where its answer is."""
+
+    label: str
+    x: np.ndarray
+    value: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    star: int | None  # the index of the condition's answer on this line, or None
+
+
+def plot_lines(summary: dict[str, Any], axis: str, name: str) -> list[Line]:
+    """The lines of ``name`` against the budget axis ``axis``: one per condition, each with the
+    points that have the metric, cheapest first, and its answer's star."""
+    at_reference = _reference_values(summary)
+    given_keys = [a["key"] for a in summary["axes"] if a["given"]]
+    others = [a["key"] for a in summary["axes"] if not a["given"] and a["key"] != axis]
+    groups: dict[str, list[dict]] = {}
+    for p in summary["points"]:
+        if p["metrics"].get(name) is not None:
+            label = ", ".join(filter(None, [
+                condition_label({k: p["params"][k] for k in given_keys}, at_reference),
+                *(f"{k} = {p['params'][k]}" for k in others)]))
+            groups.setdefault(label, []).append(p)
+    answers = [a["point"] for a in summary["answer"] if a.get("point")]
+    lines = []
+    for label, group in groups.items():
+        group.sort(key=lambda p: p["params"][axis])
+        est = [p["metrics"][name] for p in group]
+        star = next((i for i, p in enumerate(group) if p["params"] in answers), None)
+        lines.append(Line(label, np.array([p["params"][axis] for p in group], dtype=float),
+                          np.array([_num(e["value"]) for e in est]),
+                          np.array([_num(e["lo"]) for e in est]),
+                          np.array([_num(e["hi"]) for e in est]), star))
+    return lines
+
+
 def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
-    """Each metric against each budget axis with its interval band (one line per combination
-    of the given axes), the requirement line and the answer marked; a map of the status over
+    """Each metric against each budget axis with its interval band, one line and one star (its
+    answer) per condition, named in the legend; the requirement line; a map of the status over
     two budget axes (one facet per value of a third); memory occupancy against capacity."""
     import matplotlib
 
@@ -106,33 +167,25 @@ def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
     names = list(dict.fromkeys(m for p in points for m in p["metrics"]))
     requirement = {r.split()[0]: (r.split()[1], float(r.split()[2]))
                    for r in summary["requirement"]}
-    answers = [a["point"] for a in summary["answer"] if a.get("point")]
     # the band is each point's interval at the level it was decided at: the study's for a grid,
     # the per-look level for a bisection (Bonferroni over its looks)
     levels = ({p["confidence"] for p in points if p.get("confidence") is not None}
               or {summary["confidence"]})
     band = f"{levels.pop():.4g}" if len(levels) == 1 else "per-point"
+    quick = "QUICK LOOK: " if summary.get("quick") else ""
     plots = []
     for axis in budget:
         for name in names:
             fig, ax = plt.subplots(figsize=(6.5, 3.4))
-            for given, group in _by_given(points, axis, _reference_values(summary)).items():
-                x = np.array([p["params"][axis] for p in group], dtype=float)
-                est = [p["metrics"].get(name) for p in group]
-                keep = [i for i, e in enumerate(est) if e is not None]
-                if not keep:
-                    continue
-                x, est = x[keep], [est[i] for i in keep]
-                v = np.array([_num(e["value"]) for e in est])
-                lo = np.array([_num(e["lo"]) for e in est])
-                hi = np.array([_num(e["hi"]) for e in est])
-                line = ax.plot(x, v, "o-", ms=3, label=given or None)[0]
-                ax.fill_between(x, lo, hi, alpha=0.2, color=line.get_color())
-                for a in answers:
-                    if a.get(axis) in x and all(a.get(k) == group[0]["params"].get(k)
-                                                for k in a if k != axis):
-                        i = int(np.flatnonzero(x == a[axis])[0])
-                        ax.plot(x[i], v[i], "*", ms=14, color=line.get_color(), zorder=5)
+            lines = plot_lines(summary, axis, name)
+            for ln in lines:
+                drawn = ax.plot(ln.x, ln.value, "o-", ms=3, label=ln.label or None)[0]
+                ax.fill_between(ln.x, ln.lo, ln.hi, alpha=0.2, color=drawn.get_color())
+                if ln.star is not None:
+                    ax.plot(ln.x[ln.star], ln.value[ln.star], "*", ms=14, zorder=5,
+                            color=drawn.get_color())
+            if any(ln.star is not None for ln in lines):
+                ax.plot([], [], "*", ms=10, color="grey", label="the answer (cheapest passing)")
             if name in requirement:
                 ax.axhline(requirement[name][1], color="red", ls="--", lw=1,
                            label=f"requirement {requirement[name][0]} {requirement[name][1]:g}")
@@ -143,28 +196,29 @@ def make_plots(summary: dict[str, Any], folder: Path) -> list[tuple[str, str]]:
                     c = np.array(sorted(cap), dtype=float)
                     ax.step(c[:, 0], c[:, 1], "k:", where="mid", label="capacity")
             _log_if_wide(ax, axis, points, name)
+            _integer_ticks(ax, axis, points)
             ax.set(xlabel=axis, ylabel=f"{name} ({CATALOGUE[name].unit})")
-            ax.set_title(f"{name} vs {axis} (band: {band} confidence interval)", fontsize=9)
+            ax.set_title(f"{quick}{name} vs {axis} (band: {band} confidence interval)",
+                         fontsize=9)
             if ax.get_legend_handles_labels()[0]:
                 ax.legend(fontsize=7)
             fname = f"{name}_vs_{axis.replace('.', '_')}.png"
-            plots.append(_save(fig, folder, fname, f"{name} against {axis}; band: two-sided "
-                               f"interval at {band} confidence (for a bisection its per-look "
-                               "level); star: the answer"))
+            plots.append(_save(fig, folder, fname, f"{quick}{name} against {axis}, one line "
+                               f"per condition; band: two-sided interval at {band} confidence "
+                               "(for a bisection its per-look level); star: the condition's "
+                               "answer"))
     if len(budget) >= 2:
         plots.append(_heat_map(summary, budget, folder))
     return plots
 
 
-def _by_given(points: list[dict], axis: str, at_reference: dict | None = None
-              ) -> dict[str, list[dict]]:
-    groups: dict[str, list[dict]] = {}
-    ref = at_reference or {}
-    for p in points:
-        label = ", ".join(f"{k}={v}" for k, v in p["params"].items()
-                          if k != axis and ref.get(k, v) != v) or ("reference" if ref else "")
-        groups.setdefault(label, []).append(p)
-    return {k: sorted(g, key=lambda p: p["params"][axis]) for k, g in groups.items()}
+def _integer_ticks(ax, axis: str, points: list[dict]) -> None:
+    """An axis of whole numbers (bits, frames) gets whole-number ticks, never 12.5 bits."""
+    from matplotlib.ticker import MaxNLocator
+
+    xs = [p["params"][axis] for p in points]
+    if xs and all(type(x) is int for x in xs) and ax.get_xscale() == "linear":
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
 
 
 def _log_if_wide(ax, axis: str, points: list[dict], name: str) -> None:
@@ -225,9 +279,9 @@ def status_figure(summary: dict, budget: list[str]):
             ax.xaxis.set_tick_params(labelbottom=True)
     fig.supxlabel(budget[0], fontsize=9)
     fig.supylabel(budget[1], fontsize=9)
-    fig.suptitle("Status of each point" + (" (best over the other axes)"
-                                            if len(summary["axes"]) > len(budget[:3]) else ""),
-                 fontsize=10)
+    fig.suptitle(("QUICK LOOK: " if summary.get("quick") else "") + "Status of each point"
+                 + (" (best over the other axes)" if len(summary["axes"]) > len(budget[:3])
+                    else ""), fontsize=10)
     bar = fig.colorbar(im, ax=axes.flat[:len(values)], ticks=[-1, 0, 1, 2], shrink=0.9)
     middle = "undecided" if summary["requirement"] else "measured"
     bar.ax.set_yticklabels(["invalid", "fail", middle, "pass"], fontsize=8)
@@ -252,8 +306,11 @@ def _num(v) -> float:
 
 def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> str:
     """The answer, the statistics used, a table of every point, and the plots."""
-    lines = [f"# Study {summary['study']}", "", summary.get("description", ""), "",
-             "## Answer", ""]
+    quick = " (quick look)" if summary.get("quick") else ""
+    lines = [f"# Study {summary['study']}{quick}", "", summary.get("description", ""), ""]
+    if summary.get("asked"):
+        lines += [f"Asked as: `{summary['asked']}` (the whole study, as run: `study.toml`).", ""]
+    lines += ["## Answer" + (", one per condition" if len(summary["answer"]) > 1 else ""), ""]
     lines += [f"- {line}" for line in answer_lines(summary)]
     if "sensitivity" in summary:
         lines += [""] + sensitivity_markdown(summary)

@@ -196,3 +196,22 @@ def in_rule(err: Errors, where: str, r: list, rule: dataclasses.Field, key: str,
         return check_value(rule, x, where, key)
     except ScenarioError:
         err.fail(where, r, f"{key} = {x!r} is outside the key's own range: {allowed_text(rule)}")
+
+
+#: Keys of a ``[study]`` table that say where a file is or how the study was asked, not what
+#: the rows are: the scenario's content and the measured data's hash are in the identity instead,
+#: and the same overrides typed in another order are the same study (:func:`identity_table`).
+WHERE_KEYS = (("scenario",), ("target", "path"), ("asked",))
+
+
+def identity_table(table: dict[str, Any]) -> dict[str, Any]:
+    """The ``[study]`` table without :data:`WHERE_KEYS`: a study written elsewhere (its
+    ``study.toml`` beside the results, the scenario by its absolute path) is the same study."""
+    out = json.loads(json.dumps(table, default=str))
+    for path in WHERE_KEYS:
+        t = out
+        for k in path[:-1]:
+            t = t.get(k) if isinstance(t, dict) else None
+        if isinstance(t, dict):
+            t.pop(path[-1], None)
+    return out

@@ -62,6 +62,7 @@ from chiptwin.study.readers import (
     Errors,
     check_key,
     finite_pair,
+    identity_table,
     inline_table,
     keyed_table,
     pin_datasheet,
@@ -87,7 +88,7 @@ MAX_REPLICATES = 10_000
 MAX_LABEL = 200
 SCALES = ("lin", "log", "int")
 SEARCHES = ("grid", "bisect")
-KINDS = ("budget", "sensitivity", "calibrate")
+KINDS = ("budget", "sensitivity", "calibrate", "optimize")
 _REQ = re.compile(r"^\s*(<=|>=)\s*([-+0-9.eE]+|inf)\s*$")
 
 
@@ -152,6 +153,10 @@ class Study:
     kind: str = "budget"
     assumptions: tuple[Assumption, ...] = ()  # kind "sensitivity": their axes end ``axes``
     calibration: Any = None  # kind "calibrate": a chiptwin.study.calibrate_spec.Calibration
+    table: dict[str, Any] = field(default_factory=dict)  # the [study] table as read: its identity
+    quick: str = ""  # what `chiptwin study --quick` shrank ("" : the study as asked)
+    asked: str = ""  # the command line that made this study from another ("" : none)
+    optimization: Any = None  # kind "optimize": a chiptwin.study.optimize_spec.Optimization
 
     @property
     def budget_axes(self) -> tuple[Axis, ...]:
@@ -163,8 +168,11 @@ class Study:
 
     @property
     def hash(self) -> str:
-        """Identity of what the rows depend on: the study text and the resolved base scenario."""
-        parts = [self.text, self.base_raw, self.datasheet_text]
+        """Identity of what the rows depend on: the ``[study]`` table (not its comments or
+        layout, nor where its files are: :func:`identity_table`), the resolved base scenario and
+        its datasheet; a study read without its table falls back on its text."""
+        table = identity_table(self.table) if self.table else self.text
+        parts = [table, self.base_raw, self.datasheet_text]
         if self.calibration is not None:  # the measured data are part of what it depends on
             parts.append(self.calibration.target.hash)
         blob = json.dumps(parts, sort_keys=True, default=str)
@@ -210,9 +218,15 @@ STUDY_KEYS: dict[str, str] = {
               "monotonicity",
     "kind": "\"budget\" (default: the cheapest budget per condition), \"sensitivity\" (the "
             "same answer, and how far each [[study.assumption]] moves it: one budget axis, a "
-            "requirement, at least one assumption) or \"calibrate\" (scenario keys fitted to "
-            "measured data, with intervals: its own keys, chiptwin.study.calibrate_spec)",
+            "requirement, at least one assumption), \"calibrate\" (scenario keys fitted to "
+            "measured data, with intervals: its own keys, chiptwin.study.calibrate_spec) or "
+            "\"optimize\" (a design search over several keys, objectives and constraints with "
+            "Optuna: its own keys, chiptwin.study.optimize_spec)",
     "axis": "[[study.axis]] tables, at least one; cheapest and most significant first",
+    "quick": "optional text, default \"\"; written by `chiptwin study --quick`: what the "
+             "quick look shrank (replicates, budget axes); every output is labelled with it",
+    "asked": "optional text, default \"\"; written by `chiptwin study` with overrides: the "
+             "command line that made this study from another; the report shows it",
     "assumption": "[[study.assumption]] tables (kind = \"sensitivity\" only): a scenario value "
                   "not known, its plausible range and why",
     "metric": "[[study.metric]] tables with one key, name (a metric of the catalogue), at least "
@@ -269,6 +283,12 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
     if st.get("kind") == "calibrate":  # its own keys and checks
         return _calibration_study(err, st, text if text is not None else json.dumps(raw),
                                   folder, resolve_scenario)
+    if st.get("kind") == "optimize":  # its own keys and checks
+        from chiptwin.study.optimize_spec import read_optimization
+
+        return Study(source=source, text=text if text is not None else json.dumps(raw),
+                     axes=(), kind="optimize",
+                     **read_optimization(err, st, folder, resolve_scenario))
     for key in st:
         if key not in _STUDY_KEYS:
             err.fail(f"study.{key}", st[key], unknown(key, _STUDY_KEYS))
@@ -305,7 +325,8 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
         verify=err.integer(st, "verify", 0, 10, "points above a bisect answer re-checked",
                            default=1),
         description=err.text(st, "description"), datasheet_text=datasheet_text,
-        kind=kind, assumptions=assumptions,
+        kind=kind, assumptions=assumptions, table=json.loads(json.dumps(st, default=str)),
+        quick=err.text(st, "quick"), asked=err.text(st, "asked"),
     )
     if kind == "sensitivity":
         study = _with_design(err, study)
@@ -335,7 +356,7 @@ def _calibration_study(err: Errors, st: dict, text: str, folder: Path, resolve) 
                  axes=tuple(Axis(k, v) for k, v in cal.axes),
                  metrics=cal.metrics, overrides=overrides, search=cal.method,
                  description=err.text(st, "description"), datasheet_text=datasheet_text,
-                 kind="calibrate", calibration=cal)
+                 kind="calibrate", calibration=cal, table=json.loads(json.dumps(st, default=str)))
 
 
 def _check_whole(err: Errors, study: Study) -> None:
@@ -344,6 +365,9 @@ def _check_whole(err: Errors, study: Study) -> None:
     if len(lengths) > 1:
         err.fail("study.axis", [a.key for a in study.axes if a.zip],
                  f"zipped axes must have the same number of values (have {sorted(lengths)})")
+    if len({a.given for a in study.axes if a.zip}) > 1:  # one group: a budget or a condition
+        err.fail("study.axis", [a.key for a in study.axes if a.zip], "zipped axes advance "
+                 "together: all conditions (given = true) or all budget axes, not both")
     if study.search == "bisect":
         budget = study.budget_axes
         if len(budget) != 1 or budget[0].zip:

@@ -109,18 +109,81 @@ def _read_length(st: dict) -> None:
     st["requirement"] = {"q20_read_length": ">= 10", "confidence": 0.95}
 
 
-#: How each study is shrunk, and the keys the page names.
+#: How each study is shrunk, and why where the reason is not in the keys themselves. What the
+#: tiny study runs is said by :func:`tiny_changes`, from the study objects: a caption cannot
+#: name a value the run does not use.
 TINY = {
-    "adc_bits_pyro": (_adc_bits, "10 … 16 bits at 1 fmol, ideal comparator, 2 replicates, "
-                      "8 flows, the SNR loss only"),
-    "frame_memory": (_frame_memory, "its whole grid, 2 replicates, 8 flows"),
-    "lod_pyro": (_lod, "5 amounts on a grid instead of 13 searched by bisection, 4 replicates "
-                 "a point instead of up to 300"),
-    "read_length_pyro": (_read_length, "3 amounts instead of 4, 13 bits only, one chip a point "
-                         "instead of 3, 24 flows instead of 400 (a read can then be at most "
-                         "≈ 12 bases long, so the requirement line is drawn at 10 bases "
-                         "instead of 200)"),
+    "adc_bits_pyro": (_adc_bits, ""),
+    "frame_memory": (_frame_memory, ""),
+    "lod_pyro": (_lod, ""),
+    "read_length_pyro": (_read_length, "24 flows read at most about half as many bases, so the "
+                         "requirement is lowered with them"),
 }
+
+
+def full_study(name: str):
+    """The bundled study ``name`` as its file gives it."""
+    from chiptwin.config.catalog import bundled_studies, resolve_scenario
+    from chiptwin.study import load_study
+
+    return load_study(bundled_studies()[name], resolve_scenario)
+
+
+def tiny_study(name: str):
+    """The tiny version of the bundled study ``name`` (:data:`TINY`)."""
+    return _tiny(name, TINY[name][0])
+
+
+def tiny_changes(name: str) -> str:
+    """What the tiny version of study ``name`` runs, against the full study, read from both
+    study objects and the tiny study's scene: its axes, the value of each key the full study
+    varies and the tiny one does not (the scene's own), and every other difference."""
+    from chiptwin.study.spec import point_scenario
+
+    full, tiny = full_study(name), tiny_study(name)
+    scene = point_scenario(tiny, {}, tiny.seed, None)
+    kept = {a.key for a in tiny.axes}
+    parts = [f"{a.key} {_values(a.values)}" + (" (a condition)" if a.given else "")
+             for a in tiny.axes]
+    parts += [f"{k} = {_value_of(scene, k)} (the scene's; the full study varies it)"
+              for k in dict.fromkeys(a.key for a in full.axes) if k not in kept]
+    if tiny.replicates != full.replicates:
+        parts.append(f"{tiny.replicates} replicate{'s' * (tiny.replicates > 1)} a point instead "
+                     f"of {full.replicates}")
+    if tiny.vary_chip != full.vary_chip:
+        parts.append("one chip for every replicate" if not tiny.vary_chip else
+                     "another chip every replicate")
+    parts += [f"{k} = {v}" for k, v in tiny.overrides.items() if full.overrides.get(k) != v]
+    if tiny.search != full.search:
+        parts.append(f"search {tiny.search} instead of {full.search}")
+    if tiny.metrics != full.metrics:
+        parts.append("metrics " + ", ".join(tiny.metrics))
+    if tiny.requirements != full.requirements:
+        parts.append("requirement " + " and ".join(map(str, tiny.requirements)))
+    return "; ".join(parts) or "the full study"
+
+
+def full_runs(name: str) -> int:
+    """The runs of the full study ``name``: every point and reference point × replicates (a
+    bisection's cap)."""
+    from chiptwin.study.engine import Plan
+
+    plan = Plan(full_study(name))
+    return (len(plan.points) + len(plan.references)) * plan.study.replicates
+
+
+def _values(values: tuple) -> str:
+    ints = all(type(v) is int for v in values)
+    if ints and len(values) > 2 and list(values) == list(range(values[0], values[-1] + 1)):
+        return f"{values[0]} … {values[-1]}"
+    return ", ".join(map(str, values))
+
+
+def _value_of(scene, key: str):
+    value = scene
+    for part in key.split("."):
+        value = getattr(value, part)
+    return value
 
 
 @functools.cache
@@ -129,21 +192,23 @@ def study_outputs(name: str) -> Path:
     from chiptwin.study import run_study
     from chiptwin.study.outputs import write_study_outputs
 
-    edit, _ = TINY[name]
     out = ROOT / f"study-{name}"
     out.mkdir(parents=True, exist_ok=True)
-    result = run_study(_tiny(name, edit), workers=1, db=out / "results.sqlite")
+    result = run_study(tiny_study(name), workers=1, db=out / "results.sqlite")
     write_study_outputs(result, out)
     return out
 
 
 def study_command(name: str) -> str:
-    """The command of the full study, and a comment saying how the figure's run was shrunk."""
+    """The command of the full study (its runs), and a comment saying what the figure's tiny
+    run ran (:func:`tiny_changes`) and why, where :data:`TINY` gives a reason."""
     import textwrap
 
-    return f"chiptwin study {name}\n" + textwrap.fill(
-        f"the figure: a tiny version, {TINY[name][1]}", 76, initial_indent="# ",
-        subsequent_indent="# ")
+    why = TINY[name][1]
+    most = "at most " if full_study(name).search != "grid" else ""
+    return f"chiptwin study {name}    # {most}{full_runs(name):,} runs\n" + textwrap.fill(
+        f"the figure: a tiny version: {tiny_changes(name)}" + (f" ({why})" if why else ""),
+        76, initial_indent="# ", subsequent_indent="# ")
 
 
 def show_study(name: str, figure: str, width: int = 640):
