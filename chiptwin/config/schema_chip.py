@@ -1,5 +1,6 @@
 """The ``[chip]`` sections of the scenario schema: ``[chip.pixel]``, ``[chip.adc]``,
-``[chip.memory]``, ``[chip.dsp]``, ``[chip.timing]`` and ``[chip]`` itself, one frozen dataclass
+``[chip.memory]``, ``[chip.dsp]``, ``[chip.timing]``, ``[chip.cost]``
+(:mod:`chiptwin.config.schema_cost`) and ``[chip]`` itself, one frozen dataclass
 each, units in the field names; every default with its source or marked as a choice (the rest of
 the schema: :mod:`chiptwin.config.schema`)."""
 
@@ -9,6 +10,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from chiptwin.config.fields import param
+from chiptwin.config.schema_cost import Cost
 from chiptwin.config.schema_ranges import (
     CLOCK_MAX_HZ,
     CLOCK_MIN_HZ,
@@ -31,7 +33,16 @@ from chiptwin.dsp.fmt import OVERFLOW_MODES, ROUNDING_MODES
 @dataclass(frozen=True)
 class Pixel:
     """``[chip.pixel]``: photodiode and readout (Eltoukhy et al. 2006; El Gamal & Eltoukhy 2005;
-    most defaults are choices)."""
+    most defaults are choices). What moves with what: the node capacitance follows the diode,
+    junction_fF_per_um2 × diode_w_um × diode_h_um + sidewall_fF_per_um × 2 (diode_w_um +
+    diode_h_um) + readout_fF (1000 fF for the 100 µm diode), unless capacitance_fF is given,
+    which then wins; the conversion gain q/C and the kTC noise follow the capacitance; full_well_e
+    is in electrons and does not follow; chip.pitch_um must hold the diode and is not moved by
+    it.
+
+    The capacitance is resolved once, when the scenario is loaded
+    (:func:`chiptwin.config.load.scenario_from_dict`), so every stage reads one number.
+    """
 
     diode_w_um: float = param(100.0, lo=LENGTH_MIN_UM, hi=LENGTH_MAX_UM,
                               doc="µm; paper's 100 µm diode; " + LENGTHS)
@@ -51,9 +62,28 @@ class Pixel:
         doc="°C per doubling; 5–8 measured (Theuwissen, Harvest Imaging); 1 … 50 covers "
             "any silicon diode")
     capacitance_fF: float = param(
-        1000.0, lo=0.1, hi=1.0e7,
-        doc="fF; ≈1 pF for 100 µm n-well; 0.1 fF (below the ≈1 fF node of the smallest pixels) "
-            "… 10 nF (a 1 cm² n-well diode at ≈0.1 fF/µm²)")
+        0.0, lo=0.1, hi=1.0e7, zero="derived from the diode",
+        doc="fF, the whole node; 0 = junction_fF_per_um2 × area + sidewall_fF_per_um × "
+            "perimeter + readout_fF (1000 fF for the 100 µm diode); a value given wins over "
+            "that (a datasheet's, a measured one); 0.1 fF (below the ≈1 fF node of the smallest "
+            "pixels) … 10 nF (a 1 cm² n-well diode at ≈0.1 fF/µm²)")
+    junction_fF_per_um2: float = param(
+        0.08, lo=0.01, hi=2.0,
+        doc="fF/µm², the diode's bottom (area) junction capacitance; n-well/p-substrate of a "
+            "0.18 µm process: 0.07–0.13 fF/µm² (MOSIS wafer acceptance tests of TSMC SCN018, "
+            "N-well area to substrate 69–130 aF/µm²); 0.01 (a deep, lightly doped well at high "
+            "reverse bias) … 2 fF/µm², above the n+/p-substrate junction's ≈ 1 fF/µm² (same "
+            "tests), the most heavily doped diode a CMOS pixel uses")
+    sidewall_fF_per_um: float = param(
+        0.25, lo=0.0, hi=2.0,
+        doc="fF/µm of diode perimeter, the sidewall junction; 0.25 (choice: the n+ diffusion's "
+            "fringe to substrate in the same MOSIS tests is 0.21–0.25 fF/µm); 0 … 2 fF/µm, "
+            "eight times that fringe")
+    readout_fF: float = param(
+        100.0, lo=0.0, hi=1.0e4,
+        doc="fF on the node besides the diode: reset and source-follower transistors, the "
+            "converter's input, wiring (choice: 100 fF makes the 100 µm diode's node 1 pF with "
+            "the two keys above); 0 … 10 pF")
     read_noise_e: float = param(
         100.0, lo=0.0, hi=1.0e6,
         doc="e⁻ rms per sample (choice); ≤ 1e6, above the kTC noise of the largest diode (10 nF: "
@@ -66,6 +96,15 @@ class Pixel:
     true_cds: bool = param(True, kind=bool, doc="reset sampled right after reset: kTC cancels")
     pedestal_V: float = param(0.02, lo=0.0, hi=VOLT_MAX,
                               doc="V; output at zero charge, keeps noise in range; " + VOLTS)
+
+    @property
+    def derived_capacitance_fF(self) -> float:
+        """The node capacitance the diode gives: junction × area + sidewall × perimeter +
+        readout (the junction capacitance of a rectangular diode, bottom plus sidewall: Sze &
+        Ng, Physics of Semiconductor Devices, 3rd ed., ch. 2). Unit: fF."""
+        w, h = self.diode_w_um, self.diode_h_um
+        return (self.junction_fF_per_um2 * (w * h) + self.sidewall_fF_per_um * (2.0 * (w + h))
+                + self.readout_fF)
 
 
 #: ``[chip.adc]`` keys of the converter as built, each 0 / off for the ideal ADC.
@@ -248,6 +287,7 @@ class Chip:
     memory: Memory = field(default_factory=Memory)
     dsp: Dsp = field(default_factory=Dsp)
     timing: Timing = field(default_factory=Timing)
+    cost: Cost = field(default_factory=Cost)
 
     @property
     def n_pixels(self) -> int:

@@ -251,6 +251,23 @@ def _footprint(site_radius_um: float, site_side_um: float) -> tuple[str, float]:
     return ("square", side) if side > 0 else ("point", 0.0)
 
 
+def point_below(shape: str, size_um: float, height_um: float, rtol: float) -> tuple[str, float]:
+    """The footprint the quadrature integrates: a point when its size (radius or side) is at
+    most ``√rtol × height_um``.
+
+    The mean of a smooth field over a disc of radius ``a`` is its centre value plus
+    ``a²∇²f/8`` (over a square of side ``s``: ``s²∇²f/24``; the mean-value expansion), and the
+    coupling's field varies over the site's height ``U`` (the irradiance's width), so
+    ``|∇²f| ≲ f/U²``: a footprint of ``size ≤ √rtol · U`` moves every entry by ≲ rtol/8 of it,
+    inside the tolerance. Below that size the quadrature resolves little but rounding (a
+    1e-300 µm disc never converged through a stack), so the point-source law, within the
+    tolerance, is the answer.
+    """
+    if shape != "point" and size_um <= np.sqrt(rtol) * height_um:
+        return "point", 0.0
+    return shape, size_um
+
+
 def coupling_psf(
     *,
     n_rows: int,
@@ -300,7 +317,8 @@ def coupling_psf(
     -----
     The tolerance is checked, not assumed: the node count per dimension doubles from 4 until two
     successive levels agree within it (the finer one is returned; Gauss–Legendre converges
-    geometrically for this analytic integrand). A point source needs no quadrature.
+    geometrically for this analytic integrand). A point source needs no quadrature, nor does a
+    footprint below ``√rtol × height_um`` (:func:`point_below`).
     Offsets within :data:`OFFSET_QUANTUM_UM` and their mirror images share one evaluation.
     """
     rows, cols, _ = _check_grid(n_rows, n_cols, pitch_um, diode_w_um, diode_h_um)
@@ -310,7 +328,7 @@ def coupling_psf(
     tol = _checks.scalar("rtol", rtol, minimum=0.0, strict=True)
     if not 1e-12 <= tol <= 1e-2:
         raise ValueError(f"rtol = {tol!r} is out of range: must be in [1e-12, 1e-2]")
-    shape, size = _footprint(site_radius_um, site_side_um)
+    shape, size = point_below(*_footprint(site_radius_um, site_side_um), u, tol)
     px, py = pixel_centers_um(rows, cols, pitch_um)
     dx = np.abs(px[:, None] - sx[None, :]).ravel()
     dy = np.abs(py[:, None] - sy[None, :]).ravel()

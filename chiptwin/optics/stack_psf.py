@@ -61,6 +61,7 @@ from chiptwin.optics.psf import (
     coupling_psf,
     distinct_offsets,
     pixel_centers_um,
+    point_below,
 )
 from chiptwin.optics.quadrature import gauss_legendre
 from chiptwin.optics.top import Top
@@ -325,7 +326,7 @@ def coupling_stack(
     tol = _checks.scalar("rtol", rtol, minimum=0.0, strict=True)
     if not 1e-12 <= tol <= 1e-2:
         raise ValueError(f"rtol = {tol!r} is out of range: must be in [1e-12, 1e-2]")
-    shape, size = _footprint(site_radius_um, site_side_um)
+    shape, size = point_below(*_footprint(site_radius_um, site_side_um), stack.height_um, tol)
     receiving = receiving_stack(stack, into_silicon=into_silicon, faceplate=faceplate)
     na = faceplate.na if faceplate else None
     profiles = [build_profile(receiving, law, na=na)]

@@ -21,6 +21,7 @@ from chiptwin.config.outputs import check_out_dir, replacing
 from chiptwin.report.dataset import DATASET_FILE, write_dataset
 from chiptwin.report.read_plots import flow_chars, read_lines, read_plots, sff_reads
 from chiptwin.report.sff import write_sff
+from chiptwin.twin.figures import light_curves, memory_occupancy
 from chiptwin.twin.figures import save_figure as _save
 from chiptwin.twin.programs import program_plots
 
@@ -104,8 +105,9 @@ def make_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
     a, plots = result.arrays, []
     fig, ax = plt.subplots(figsize=(7, 3.5))
     n_sites = a["site_signal_e"].shape[0]
-    for i in range(min(n_sites, MAX_CURVES)):
-        ax.plot(a["block_t_s"], a["site_signal_e"][i], lw=0.8, label=f"site {i}")
+    drawn = min(n_sites, MAX_CURVES)
+    light_curves(ax, a["block_t_s"], a["site_signal_e"][:drawn], [f"site {i}" for i in
+                                                                   range(drawn)])
     ax.set(xlabel="time (s)", ylabel="signal per frame (e⁻)", title="Light curve at site pixels")
     if n_sites <= 8:
         ax.legend(fontsize=7)
@@ -142,9 +144,10 @@ def make_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
         plots.append(_saturation_plot(result.summary["saturation"], folder))
 
     fig, ax = plt.subplots(figsize=(7, 2.5))
-    ax.step(a["memory_t_s"], a["memory_frames"], where="post")
+    memory_occupancy(ax, a["memory_t_s"], a["memory_frames"],
+                     result.summary["chip"]["memory_capacity_frames"])
     ax.set(xlabel="time (s)", ylabel="frames", title="Frame memory occupancy")
-    plots.append(_save(fig, folder, "memory.png", "Frame memory occupancy"))
+    plots.append(_save(fig, folder, "memory.png", "Frame memory occupancy against its capacity"))
     plots += program_plots(result, folder)  # [chip.dsp] program figures (chiptwin.twin.programs)
     return plots
 
@@ -268,6 +271,13 @@ def report_markdown(summary: dict[str, Any], plots: list[tuple[str, str]]) -> st
     return "\n".join(lines) + "\n"
 
 
+def _reach_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
+    """A template longer than its flows reach: the read is judged on the bases they reach (the
+    true sequence below), not on the whole template."""
+    n, m = len(summary["true_sequence"]), summary.get("template_length", 0)
+    return [("reads", f"the first {n} bases (the flows reach base {n} of {m})")] if n < m else []
+
+
 def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
     """The compact table printed by the CLI and put at the top of report.md."""
     rows = [("wall time", f"{summary['wall_time_s']:.2f} s"), ("seed", str(summary["seed"]))]
@@ -293,10 +303,14 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
                     f"{arr['fraction_detected']:.1%} detected")
             rows.append(("per-site SNR (power)", text))
             if "fraction_called_right" in arr:
+                reach = len(summary.get("true_sequence", ""))
+                on = (f", each read judged on the first {reach} bases" if reach < summary.get(
+                    "template_length", 0) else "")
                 rows.append(("sites called right", f"{arr['sites_called_right']} of "
-                             f"{arr['n_sites']} ({arr['fraction_called_right']:.2%})"))
+                             f"{arr['n_sites']} ({arr['fraction_called_right']:.2%}){on}"))
     if "called_sequence" in summary:
         ok = summary["called_sequence"] == summary["true_sequence"]
+        rows += _reach_rows(summary)
         rows.append(("true sequence", summary["true_sequence"]))
         rows.append(("called sequence", summary["called_sequence"] + ("  ✓" if ok else "  ✗")))
     reads = summary.get("reads", {})
@@ -348,6 +362,7 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
                  f"{chip['memory_peak_frames']} frames of {chip['memory_capacity_frames']}, "
                  f"DSP utilisation {chip['dsp_utilization']:.3g}, "
                  f"{chip['overflows'] or 'no'} frame(s) dropped"))
+    rows += _cost_rows(summary.get("cost"), summary.get("throughput"))
     rows += [(f"flag: {f}", "yes") for f in chip["flags"]]
     dsp = summary["dsp"]
     if dsp["level"] != "float":
@@ -360,6 +375,27 @@ def headline(summary: dict[str, Any]) -> list[tuple[str, str]]:
         rows.append(("DSP error vs float", f"max {e['max_abs_err_lsb']:.3g} output LSB, bias "
                      f"{e['bias_lsb']:.3g} LSB, SQNR {sqnr}"))
     rows += [("warning", w) for w in summary.get("warnings", [])]
+    return rows
+
+
+def _cost_rows(cost: dict[str, Any] | None, tp: dict[str, Any] | None
+               ) -> list[tuple[str, str]]:
+    """The chip's silicon (area and power by block, chiptwin.chip.silicon) and its yield."""
+    if not cost:
+        return []
+    blocks = ", ".join(f"{name} {b['area_mm2']:.3g} mm² / {b['power_mw']:.3g} mW"
+                       for name, b in cost["blocks"].items())
+    rows = [("silicon", f"{cost['area_mm2']:.3g} mm², {cost['power_mw']:.3g} mW ({blocks})"
+             + ("" if cost["pixel_fits_pitch"] else "; the pixel's content exceeds its pitch"))]
+    if tp:
+        text = (f"{tp['sites_called']} sites called ({tp['sites_called_frac']:.1%}; "
+                f"{tp['sites_called_means']}), {tp['sites_per_mm2']:.3g} per mm²")
+        if "q20_bases_per_run" in tp:
+            nj = cost.get("energy_per_base_nj")
+            text += (f"; {tp['q20_bases_per_run']} Q20 bases, {tp['q20_bases_per_hour']:.4g} an "
+                     f"hour, {tp['q20_bases_per_hour_mm2']:.4g} an hour per mm²; "
+                     + (f"{nj:.4g} nJ per Q20 base" if nj is not None else "no Q20 base"))
+        rows.append(("throughput", text))
     return rows
 
 

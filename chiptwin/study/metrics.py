@@ -96,6 +96,16 @@ def _min_site(key: str) -> Callable[[Result], float]:
     return lambda r: float(min(s[key] for s in r.summary["sites"]))
 
 
+def _section(section: str, key: str) -> Callable[[Result], float]:
+    return lambda r: float(r.summary[section][key])
+
+
+def _energy_per_base(r: Result) -> float:
+    """nJ per Q20 base; infinite when the run reads none (the summary's None)."""
+    value = r.summary["cost"]["energy_per_base_nj"]
+    return float("inf") if value is None else float(value)
+
+
 def _reads(key: str, stat: str) -> Callable[[Result], float]:
     return lambda r: float(r.summary["reads"][key][stat])
 
@@ -165,6 +175,27 @@ _METRICS = [
            "bits' ideal SNDR 6.02 N + 1.76 dB) over the frame period", _chip("adc_power_w")),
     Metric("adc_energy_per_frame_j", "mean", "J", "the ADCs' energy per frame (every pixel's 2M "
            "conversions)", _chip("adc_energy_per_frame_j")),
+    # what the chip costs in silicon (chiptwin.chip.silicon, [chip.cost]) and what it yields
+    Metric("area_mm2", "mean", "mm²", "die area: pixel array, converters, frame memory, DSP, "
+           "readout periphery and pads ([chip.cost])", _section("cost", "area_mm2")),
+    Metric("power_mw", "mean", "mW", "average power over the run: pixel bias, converters "
+           "(Schreier FOM), memory traffic, DSP operations, periphery and I/O ([chip.cost])",
+           _section("cost", "power_mw")),
+    Metric("energy_per_base_nj", "mean", "nJ", "the run's energy (power × duration) per Q20 "
+           "base; infinite when it reads none", _energy_per_base, pyro_only=True),
+    Metric("q20_bases_per_run", "mean", "bases", "Q20 bases the chip's sites read in the run "
+           "(each site's read length at Q20, summed)", _section("throughput",
+                                                                "q20_bases_per_run"),
+           pyro_only=True),
+    Metric("q20_bases_per_hour", "mean", "bases/h", "Q20 bases per hour of run time "
+           "(run.duration_s)", _section("throughput", "q20_bases_per_hour"), pyro_only=True),
+    Metric("q20_bases_per_hour_mm2", "mean", "bases/h/mm²", "Q20 bases per hour per mm² of die",
+           _section("throughput", "q20_bases_per_hour_mm2"), pyro_only=True),
+    Metric("sites_called_frac", "mean", "1", "share of sites called: pyrosequencing, the whole "
+           "template read right (the share calls_correct counts); an assay, detected (the "
+           "share sites_detected counts)", _section("throughput", "sites_called_frac")),
+    Metric("sites_per_mm2", "mean", "1/mm²", "sites called (as sites_called_frac) per mm² of die",
+           _section("throughput", "sites_per_mm2")),
     Metric("dsp_max_err_lsb", "mean", "LSB", "max |fixed − float| DSP output error (the run "
            "computes the float reference beside the fixed chain)", _dsp_max_err,
            needs_fixed=True),

@@ -1,8 +1,9 @@
 """From the chip model's outputs to the summary: per-site figures, base calls, chip figures.
 
 :func:`detect` turns the DSP outputs (in electrons, with their propagated variances) into the
-``sites``, ``flows`` and ``chip`` entries of ``summary.json`` and the arrays beside it. The
-statistics themselves (SNR, window sums) are pure functions in :mod:`chiptwin.detection`.
+``sites``, ``flows``, ``chip``, ``cost`` and ``throughput`` entries of ``summary.json`` and the
+arrays beside it. The statistics themselves (SNR, window sums) are pure functions in
+:mod:`chiptwin.detection`.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from chiptwin.config import Scenario, ScenarioError
 from chiptwin.detection import snr, window_sums
 from chiptwin.detection.reads import TAIL_FLOWS
 from chiptwin.kinetics import pyro
-from chiptwin.twin import dose_response, saturation, stages
+from chiptwin.twin import chip_cost, dose_response, saturation, stages
 from chiptwin.twin.optics_summary import optics_figures
 from chiptwin.twin.programs import program_figures
 from chiptwin.twin.reads import call_reads, caller_input, read_figures
@@ -103,6 +104,8 @@ def detect(s: Scenario, scene: Scene, out: ChainOutput
         section["cost"] = saturation.frame_cost(s, summary["chip"])
         summary["saturation"] = section
     program_figures(s, scene, out, summary, arrays)  # [chip.dsp] program (chiptwin.twin.programs)
+    summary["cost"] = chip_cost.cost_figures(s, sch, summary)  # silicon area and power
+    summary["throughput"] = chip_cost.throughput_figures(s, summary, summary["cost"])
     # A dropped frame makes the DSP average non-consecutive frames, as the chip would; the
     # figures are still reported, but not as trustworthy.
     summary["results_valid"] = not set(summary["chip"]["flags"]) & INVALIDATING_FLAGS
@@ -202,6 +205,7 @@ def _pyro_sites(s, out: ChainOutput, idx, summary, arrays) -> list[dict]:
         noise.append(float(np.sqrt(np.mean(var[ones, j]))))
     true_seq = "".join(nuc * int(n) for nuc, n in zip(nucs, n_inc, strict=True))
     summary["true_sequence"] = true_seq
+    summary["template_length"] = len(a.template)  # the flows may reach only its first bases
     summary["called_sequence"] = calls[0][0]
     summary["called_sequences"] = [c for c, _ in calls]
     summary["flows"] = [
