@@ -25,6 +25,7 @@ from chiptwin.config.consistency_assay import (
 from chiptwin.config.consistency_base import _fail
 from chiptwin.config.consistency_chip import (
     _adc_range,
+    _capacitance,
     _converter,
     _dsp_formats,
     _dsp_program,
@@ -34,6 +35,7 @@ from chiptwin.config.consistency_chip import (
 from chiptwin.config.consistency_optics import _optics
 from chiptwin.config.cost import check_wall_time
 from chiptwin.config.schema import CLOCK_MAX_HZ, Scenario
+from chiptwin.config.tiling import check_tile
 from chiptwin.constants import s_to_ticks
 from chiptwin.dsp.fixed import accumulator_bits_needed
 
@@ -53,8 +55,9 @@ def check_consistency(s: Scenario) -> None:
     # _dsp_formats, then _dsp_program, before _timing: the schedule is derived from the
     # program's stages, and their costs from the register formats
     for rule in (_name, _fidelity, _assay, _cascade, _sites, _optics, _dsp_formats, _dsp_program,
-                 _timing, _adc_range, _converter, _memory, _duration, _matched_filter, check_budget,
-                 _site_amounts, check_wall_time):
+                 _timing, _capacitance, _adc_range, _converter, _memory, _duration,
+                 _matched_filter, check_budget,
+                 _site_amounts, check_tile, check_wall_time):
         rule(s)
 
 
@@ -100,15 +103,18 @@ def _fidelity(s: Scenario) -> None:
 
 
 def _timing(s: Scenario) -> None:
-    """Checked in the chip model's own nanosecond ticks, as it will run."""
+    """Checked in the chip model's own nanosecond ticks, as it will run; said in seconds, the
+    unit of the keys (the smallest period rounded up, so that it fits)."""
     from chiptwin.chip.des import Schedule
 
     sch = Schedule.from_chip(s.chip, s.run.duration_s)
     if sch.busy_ns > sch.frame_period_ns:
+        smallest = _round_up(sch.busy_ns * 1e-9, digits=5)
         _fail(s, "chip.timing.frame_period_s", s.chip.timing.frame_period_s,
-              f"must be ≥ reset + integration + {s.chip.samples_per_frame} conversions "
-              f"= {sch.busy_ns} ns (t_int_s {s.chip.timing.t_int_s:g} s, one conversion "
-              f"{sch.t_conv_ns} ns); {_schedule_fix(s, sch)}")
+              f"is below the smallest allowed, {smallest:.5g} s: reset "
+              f"{sch.t_reset_ns * 1e-9:.4g} s + integration (t_int_s) {sch.t_int_ns * 1e-9:.4g} s "
+              f"+ {s.chip.samples_per_frame} conversions of {sch.t_conv_ns * 1e-9:.4g} s; "
+              f"{_schedule_fix(s, sch)}")
 
 
 def _schedule_fix(s: Scenario, sch) -> str:
@@ -124,13 +130,16 @@ def _schedule_fix(s: Scenario, sch) -> str:
             clock = _round_up(clock * 1.001)
         if clock <= CLOCK_MAX_HZ:
             return (f"set chip.adc.clock_hz ≥ {_hz(clock)} (now {_hz(adc.clock_hz, short=True)}, "
-                    f"{cycles} cycles a conversion), or lengthen the frame period")
+                    f"{cycles} cycles a conversion), or chip.timing.frame_period_s ≥ "
+                    f"{_round_up(sch.busy_ns * 1e-9, digits=5):.5g}")
     t_int_ns = sch.frame_period_ns - sch.t_reset_ns - n * sch.t_conv_ns
     if t_int_ns > 0:
         digits = 10 ** (int(math.floor(math.log10(t_int_ns))) - 3)  # 4 digits, rounded down
-        return (f"set chip.timing.t_int_s ≤ {t_int_ns // digits * digits * 1e-9:.4g} (now "
-                f"{s.chip.timing.t_int_s:g}), or lengthen the frame period")
-    return "lengthen the frame period"
+        return (f"set chip.timing.t_int_s ≤ {t_int_ns // digits * digits * 1e-9:.4g} s (now "
+                f"{s.chip.timing.t_int_s:g} s), or chip.timing.frame_period_s ≥ "
+                f"{_round_up(sch.busy_ns * 1e-9, digits=5):.5g}")
+    return (f"set chip.timing.frame_period_s ≥ {_round_up(sch.busy_ns * 1e-9, digits=5):.5g}, "
+            "or shorten chip.timing.t_int_s")
 
 
 def _hz(f: float, short: bool = False) -> str:
@@ -143,10 +152,10 @@ def _hz(f: float, short: bool = False) -> str:
     return f"{f:g} Hz"
 
 
-def _round_up(x: float) -> float:
-    """Up to 3 significant digits: 41,020 → 41,100."""
-    scale = 10.0 ** (math.floor(math.log10(x)) - 2)
-    return math.ceil(x / scale - 1e-9) * scale
+def _round_up(x: float, digits: int = 3) -> float:
+    """Up to ``digits`` significant digits: 41,020 → 41,100 (3); 1.5032868 → 1.5033 (5)."""
+    scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+    return float(f"{math.ceil(x / scale - 1e-9) * scale:.{digits}g}")
 
 
 def _duration(s: Scenario) -> None:
@@ -164,16 +173,27 @@ def _duration(s: Scenario) -> None:
         _fail(s, "assay.start_s", a.start_s,
               f"must be the end of the dark frames ({dark_ticks / 1e9:g} s) plus a whole number "
               f"of {c.dsp.average_frames}-frame blocks ({block / 1e9:g} s each), so that no "
-              "averaged block mixes dark and light")
+              "averaged block mixes dark and light: "
+              + _nearest(s_to_ticks(a.start_s), block, dark_ticks))
     need = a.start_s + c.dsp.average_frames * c.timing.frame_period_s
     if a.kind == "pyrosequencing":
         need = a.start_s + a.n_flows * a.flow_period_s
         if s_to_ticks(a.flow_period_s) % block:
             _fail(s, "assay.flow_period_s", a.flow_period_s,
                   f"must be a whole number of {c.dsp.average_frames}-frame blocks "
-                  f"({block / 1e9:g} s each), so that averaged frames do not straddle flows")
+                  f"({block / 1e9:g} s each), so that averaged frames do not straddle flows: "
+                  f"{_nearest(s_to_ticks(a.flow_period_s), block, block)}")
     if s.run.duration_s < need:
         _fail(s, "run.duration_s", s.run.duration_s, f"must be ≥ {need:g} s for this assay")
+
+
+def _nearest(ticks: int, step: int, first: int) -> str:
+    """The allowed values either side of ``ticks`` on the grid ``first + k · step`` (k ≥ 0), in
+    seconds: "the nearest allowed are 20 s and 24 s"."""
+    below = first + (ticks - first) // step * step
+    values = [first] if ticks < first else [below, below + step]
+    return "the nearest allowed " + ("are " if len(values) > 1 else "is ") + " and ".join(
+        f"{v / 1e9:g} s" for v in values)
 
 
 def scenario_warnings(s: Scenario) -> list[str]:

@@ -4,6 +4,8 @@ filter, the DSP's register formats and its program (run by
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from chiptwin.config.consistency_base import _fail
@@ -58,6 +60,24 @@ def _converter(s: Scenario) -> None:
         _fail(s, f"chip.adc.{key}", getattr(adc, key), f"the converter cannot be built: {text}")
 
 
+#: The range ``capacitance_fF`` has (schema_chip.Pixel), which a derived one keeps too. Unit: fF.
+CAPACITANCE_RANGE_FF = (0.1, 1.0e7)
+
+
+def _capacitance(s: Scenario) -> None:
+    """A capacitance derived from the diode (``capacitance_fF`` not given) stays in the range a
+    given one has; the refusal names the keys it was derived from."""
+    px = s.chip.pixel
+    lo, hi = CAPACITANCE_RANGE_FF
+    if px.capacitance_fF == px.derived_capacitance_fF and not lo <= px.capacitance_fF <= hi:
+        _fail(s, "chip.pixel.capacitance_fF", px.capacitance_fF,
+              f"derived from the diode as junction_fF_per_um2 {px.junction_fF_per_um2:g} × "
+              f"{px.diode_w_um:g} × {px.diode_h_um:g} µm + sidewall_fF_per_um "
+              f"{px.sidewall_fF_per_um:g} × {2 * (px.diode_w_um + px.diode_h_um):g} µm + "
+              f"readout_fF {px.readout_fF:g}, it must lie in [{lo:g}, {hi:g}] fF: change those "
+              "keys or give chip.pixel.capacitance_fF")
+
+
 def _adc_range(s: Scenario) -> None:
     adc, px = s.chip.adc, s.chip.pixel
     if adc.v_max_V < adc.v_min_V + ADC_SPAN_MIN_V:
@@ -76,14 +96,45 @@ def _adc_range(s: Scenario) -> None:
         _fail(s, "chip.adc.offset_error_lsb", adc.offset_error_lsb,
               f"puts the pedestal at code {zero_code:.1f}, below code 0: dark pixels would clip")
     if full_code > 2**adc.bits - 1 and not adc.range_below_full_well_ok:
+        fits_e = math.floor((2**adc.bits - 1 - zero_code) / (1 + adc.gain_error) * lsb
+                            * px.capacitance_fF * 1e-15 / Q_E)
+        given = ("given" if px.capacitance_fF != px.derived_capacitance_fF else
+                 "derived from the diode")
         _fail(s, "chip.adc.v_max_V", adc.v_max_V,
               f"is below the full well: pedestal + full_well_e·q/C = "
               f"{px.pedestal_V + full_well_V:.4g} V reaches code {full_code:.0f} > "
-              f"{2**adc.bits - 1} (gain and offset errors included); raise it, or set "
-              "chip.adc.range_below_full_well_ok = true if clipping is intended")
+              f"{2**adc.bits - 1} (gain and offset errors included; C = "
+              f"{px.capacitance_fF:.4g} fF, {given}); raise it, set chip.pixel.full_well_e ≤ "
+              f"{fits_e}, or set chip.adc.range_below_full_well_ok = true if clipping is "
+              "intended")
     if s.chip.memory.word_bits < adc.bits:
         _fail(s, "chip.memory.word_bits", s.chip.memory.word_bits,
               f"must hold an ADC code: ≥ chip.adc.bits = {adc.bits}")
+
+
+def memory_needed_bits(s: Scenario) -> int:
+    """The least ``chip.memory.capacity_bits`` the scenario's schedule runs on, in bits: the
+    largest block of frames the DSP waits for plus what it holds (the dark reference; a
+    program's stages). Validation refuses any smaller memory; a frame-memory study states this as
+    its least memory, checked by a run at that size."""
+    from chiptwin.dsp import program as prog
+
+    need = _block_need(s)
+    return need if prog.is_default(s.chip.dsp.program) else max(need, _program_need(s))
+
+
+def _block_need(s: Scenario) -> int:
+    c = s.chip
+    block = max(c.dsp.n_dark_frames, c.dsp.average_frames)
+    return block * c.frame_bits + c.memory.word_bits * c.n_pixels
+
+
+def _program_need(s: Scenario) -> int:
+    from chiptwin.dsp import program as prog
+
+    load = prog.program_load(s.chip)
+    return max(s.chip.dsp.n_dark_frames, load.frames_per_job) * s.chip.frame_bits + \
+        load.resident_bits
 
 
 def _memory(s: Scenario) -> None:
@@ -91,7 +142,7 @@ def _memory(s: Scenario) -> None:
     c = s.chip
     block = max(c.dsp.n_dark_frames, c.dsp.average_frames)
     dark_ref_bits = c.memory.word_bits * c.n_pixels
-    needed = block * c.frame_bits + dark_ref_bits
+    needed = _block_need(s)
     if c.memory.capacity_bits < needed:
         _fail(s, "chip.memory.capacity_bits", c.memory.capacity_bits,
               f"must be ≥ {needed} bits: a block of {block} frames × {c.frame_bits} bits "
@@ -222,7 +273,7 @@ def _program_memory(s: Scenario) -> None:
     costs = prog.stage_costs(c)
     load = prog.program_load(c)
     block = max(c.dsp.n_dark_frames, load.frames_per_job)
-    needed = block * c.frame_bits + load.resident_bits
+    needed = _program_need(s)
     if c.memory.capacity_bits < needed:
         held = ", ".join(f"{k} {v.memory_bits}" for k, v in costs.items() if v.memory_bits)
         _fail(s, "chip.memory.capacity_bits", c.memory.capacity_bits,

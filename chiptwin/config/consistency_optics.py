@@ -33,15 +33,27 @@ def _optics(s: Scenario) -> None:
               f"{s.sites.footprint_radius_um / FOOTPRINT_PER_HEIGHT_MAX:g} µm with the psf "
               "optics: the footprint's quadrature does not converge for a disc that wide so "
               "close to the diode")
-    px = s.chip.pixel
-    if max(px.diode_w_um, px.diode_h_um) > s.chip.pitch_um:
-        _fail(s, "chip.pitch_um", s.chip.pitch_um,
-              f"must be ≥ the diode size {max(px.diode_w_um, px.diode_h_um):g} µm")
+    _pitch_holds_diode(s)
     _optics_law(s)
     _optics_layers(s)
     _optics_stack_levels(s)
     _optics_band(s)
     _optics_top(s)
+
+
+def _pitch_holds_diode(s: Scenario) -> None:
+    """The pitch holds the diode; neither moves the other (the pitch is the array's layout, the
+    diode its own key), so the refusal names both keys and the value of each that works."""
+    px, pitch = s.chip.pixel, s.chip.pitch_um
+    wide = [(k, v) for k, v in (("diode_w_um", px.diode_w_um), ("diode_h_um", px.diode_h_um))
+            if v > pitch]
+    if wide:
+        diode = " and ".join(f"chip.pixel.{k} = {v:g} µm" for k, v in wide)
+        keys = " and ".join(f"chip.pixel.{k}" for k, _ in wide)
+        _fail(s, "chip.pitch_um", pitch,
+              f"must be ≥ the diode {diode}: set {keys} ≤ {pitch:g} or chip.pitch_um ≥ "
+              f"{max(v for _, v in wide):g} (the node capacitance follows the diode unless "
+              "chip.pixel.capacitance_fF is given)")
 
 
 #: Ranges of ``[optics.top]`` once its medium needs the key (0 means "not given" in the schema).

@@ -18,6 +18,8 @@ class ScenarioError(ValueError):
     def __init__(self, source: str, key: str, value: Any, allowed: str) -> None:
         self.source, self.key, self.value, self.allowed = source, key, value, allowed
         shown = "(missing)" if value is MISSING else repr(value)
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and unit_of(key):
+            shown += f" {unit_of(key)}"  # in the key's own unit: "frame_period_s = 0.001 s"
         super().__init__(f"{source}: {key} = {shown}: {allowed}")
 
 
@@ -29,6 +31,7 @@ def param(
     hi: float | None = None,
     lo_open: bool = False,
     choices: tuple[Any, ...] | None = None,
+    zero: str = "",
     doc: str = "",
 ) -> Any:
     """A dataclass field that carries its own validation rule.
@@ -43,10 +46,13 @@ def param(
         Inclusive bounds (``lo`` exclusive when ``lo_open``).
     choices : tuple, optional
         The allowed values.
+    zero : str, optional
+        What 0 means when 0 is allowed outside ``lo … hi`` ("derived from the diode").
     doc : str
         Unit and source of the default, shown in error messages and docs.
     """
-    meta = {"kind": kind, "lo": lo, "hi": hi, "lo_open": lo_open, "choices": choices, "doc": doc}
+    meta = {"kind": kind, "lo": lo, "hi": hi, "lo_open": lo_open, "choices": choices,
+            "zero": zero, "doc": doc}
     if default is MISSING:
         return dataclasses.field(metadata=meta)
     if isinstance(default, list):
@@ -74,7 +80,7 @@ def allowed_text(f: Field) -> str:
     m = f.metadata
     if m.get("choices"):
         return "must be one of " + ", ".join(repr(c) for c in m["choices"])
-    text = "must be " + _kind_name(m["kind"])
+    text = "must be " + (f"0 ({m['zero']}) or " if m.get("zero") else "") + _kind_name(m["kind"])
     lo, hi = m.get("lo"), m.get("hi")
     if lo is not None and hi is not None:
         text += f" in {'(' if m['lo_open'] else '['}{lo:g}, {hi:g}]"
@@ -99,8 +105,47 @@ def check_value(f: Field, value: Any, source: str, key: str) -> Any:
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         lo, hi = m.get("lo"), m.get("hi")
         below = lo is not None and (value <= lo if m["lo_open"] else value < lo)
-        if below or (hi is not None and value > hi):
-            raise ScenarioError(source, key, value, allowed_text(f))
+        if (below and not (value == 0 and m.get("zero"))) or (hi is not None and value > hi):
+            raise ScenarioError(source, key, value, out_of_range(f, key, value))
         if m["kind"] is float:
             return float(value)
     return value
+
+
+#: The unit a key's name ends with (STYLE: units in the names), as a message shows it.
+UNITS = (("_per_um2", "/µm²"), ("_per_um", "/µm"), ("_per_s", "1/s"), ("_s", "s"),
+         ("_um", "µm"), ("_nm", "nm"), ("_hz", "Hz"), ("_fF", "fF"), ("_uV", "µV"),
+         ("_V", "V"), ("_C", "°C"), ("_e", "e⁻"), ("_lsb", "LSB"), ("_db", "dB"))
+
+
+def unit_of(key: str) -> str:
+    """The unit a key's name carries (``chip.timing.frame_period_s`` → ``s``; ``fF_per_um2``
+    → ``fF/µm²``), "" when it carries none."""
+    name = key.rsplit(".", 1)[-1]
+    for suffix, unit in UNITS:
+        if name.endswith(suffix):
+            if unit.startswith("/"):  # a per-length key: the unit before it, "fF" + "/µm²"
+                head = name[: -len(suffix)].rsplit("_", 1)[-1]
+                return head + unit if head in ("fF", "aF", "e", "V") else ""
+            return unit
+    return ""
+
+
+def with_unit(value: float, key: str) -> str:
+    """A value as a message shows it, with its key's unit: ``1.5033 s``, ``80 µm``."""
+    unit = unit_of(key)
+    return f"{value:.5g}" + (f" {unit}" if unit else "")
+
+
+def out_of_range(f: Field, key: str, value: float) -> str:
+    """A refused range, its bound first: "below the smallest allowed, 1e-09 s (why); must be a
+    number in [1e-09, 1e+07]"."""
+    m = f.metadata
+    lo, hi = m.get("lo"), m.get("hi")
+    if hi is not None and value > hi:
+        bound = f"is above the largest allowed, {with_unit(hi, key)}"
+    elif m["lo_open"]:
+        return allowed_text(f)  # "(0, 1]" already says it: nothing equal to 0 is allowed
+    else:
+        bound = f"is below the smallest allowed, {with_unit(lo, key)}"
+    return f"{bound}; {allowed_text(f)}"

@@ -6,6 +6,7 @@ checks a file saying ``bits = 40`` would.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
 import difflib
@@ -17,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from chiptwin.config.catalog import resolve_scenario
+from chiptwin.config.chemistry import with_chemistry
 from chiptwin.config.consistency import check_consistency
 from chiptwin.config.datasheet import apply_datasheet, datasheet_values, read_datasheet
 from chiptwin.config.fields import ScenarioError, check_value
@@ -44,17 +46,42 @@ def load_scenario(
     Raises
     ------
     ScenarioError
-        Naming the file, the key, the value and what is allowed.
+        Naming the file, the key, the value and what is allowed; an override's key is named by
+        the override (``--set chip.pitch_um=80: …``), not by the file it was not in.
     """
     if isinstance(path, str):
         path = resolve_scenario(path)
     source = str(path)
     raw = read_toml(path)
+    overrides = list(overrides)
     for text in overrides:
-        apply_override(raw, text, source)
+        apply_override(raw, text, OVERRIDE_SOURCE)
     if seed is not None:
         raw.setdefault("scenario", {})["seed"] = seed
-    return scenario_from_dict(raw, source)
+    with named_overrides(source, overrides):
+        return scenario_from_dict(raw, source)
+
+
+#: What a malformed ``--set`` names instead of a file.
+OVERRIDE_SOURCE = "command line"
+
+
+@contextlib.contextmanager
+def named_overrides(source: str, overrides: list[str]):
+    """Re-raise a refusal of ``source`` by what caused it: a key an override set is named by
+    that override (``--set chip.pitch_um=80``); another key, refused once overrides were
+    applied, by the file and the overrides (``pyro_1fmol.toml with --set …``)."""
+    try:
+        yield
+    except ScenarioError as err:
+        if not overrides or err.source != source:
+            raise
+        keys = {text.partition("=")[0].strip(): text for text in overrides}
+        hit = next((text for k, text in keys.items()
+                    if err.key == k or err.key.startswith(k + ".")), None)
+        shown = (f"--set {hit}" if hit is not None else
+                 f"{source} with " + ", ".join(f"--set {t}" for t in overrides))
+        raise ScenarioError(shown, err.key, err.value, err.allowed) from None
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
@@ -110,12 +137,24 @@ def _scenario(raw: dict[str, Any], source: str) -> Scenario:
     for name in REQUIRED_SECTIONS:
         if name not in raw:
             raise ScenarioError(source, f"[{name}]", dataclasses.MISSING, "section is required")
+    raw = with_chemistry(raw)  # a named chemistry's keys, under the scene's own
     scenario = _build(Scenario, raw, source, "", skip={"source"})
-    scenario = dataclasses.replace(scenario, source=source)
+    scenario = _resolve_capacitance(dataclasses.replace(scenario, source=source))
     _check_assay_keys(raw["assay"], scenario.assay.kind, source)
     scenario = _draw_template(scenario, raw["assay"], source)
     check_consistency(scenario)
     return scenario
+
+
+def _resolve_capacitance(s: Scenario) -> Scenario:
+    """``[chip.pixel] capacitance_fF = 0`` (not given): the node capacitance the diode gives
+    (:attr:`chiptwin.config.schema_chip.Pixel.derived_capacitance_fF`), resolved once here so
+    every stage reads one number; a value given wins."""
+    px = s.chip.pixel
+    if px.capacitance_fF > 0:
+        return s
+    pixel = dataclasses.replace(px, capacitance_fF=px.derived_capacitance_fF)
+    return dataclasses.replace(s, chip=dataclasses.replace(s.chip, pixel=pixel))
 
 
 def _draw_template(s: Scenario, raw_assay: dict[str, Any], source: str) -> Scenario:
@@ -200,19 +239,22 @@ def load_with_datasheet(path: str | Path, datasheet: str | Path, overrides: Iter
     doc = read_datasheet(datasheet)
     raw = read_toml(path)
     base_raw = copy.deepcopy(raw)
+    overrides = list(overrides)
     for text in overrides:
-        apply_override(base_raw, text, source)
+        apply_override(base_raw, text, OVERRIDE_SOURCE)
     pixel_raw = (base_raw.get("chip") or {}).get("pixel")
     if isinstance(pixel_raw, dict):
         pixel_raw.pop("from_datasheet", None)
-    targets = datasheet_values(doc, scenario_from_dict(base_raw, source))
+    with named_overrides(source, overrides):
+        targets = datasheet_values(doc, scenario_from_dict(base_raw, source))
     for key in targets:
         section = raw.get("chip", {}).get(key.split(".")[1])
         if isinstance(section, dict):
             section.pop(key.rsplit(".", 1)[1], None)
     for text in overrides:
-        apply_override(raw, text, source)
+        apply_override(raw, text, OVERRIDE_SOURCE)
     raw.setdefault("chip", {}).setdefault("pixel", {})["from_datasheet"] = str(datasheet.resolve())
     if seed is not None:
         raw.setdefault("scenario", {})["seed"] = seed
-    return scenario_from_dict(raw, source)
+    with named_overrides(source, overrides):
+        return scenario_from_dict(raw, source)

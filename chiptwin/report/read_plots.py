@@ -9,6 +9,7 @@ import numpy as np
 
 from chiptwin.config import Scenario
 from chiptwin.report.sff import SffRead, quality_clip
+from chiptwin.twin.figures import quality_calibration
 from chiptwin.twin.figures import save_figure as _save
 
 if TYPE_CHECKING:
@@ -71,20 +72,11 @@ def read_plots(result: Result, folder: Path) -> list[tuple[str, str]]:
     plots.append(_save(fig, folder, "read_length.png", "Read length at Q20 and at 99 % "
                        "accuracy over the sites"))
 
-    cal = r["calibration"]
     fig, ax = plt.subplots(figsize=(5, 4))
-    stated = np.array([c["stated_error"] for c in cal])
-    obs = np.array([c["observed_error"] for c in cal])
-    lo, hi = np.array([c["ci_low"] for c in cal]), np.array([c["ci_high"] for c in cal])
-    floor = 1e-5
-    ax.errorbar(np.maximum(stated, floor), np.maximum(obs, floor),
-                yerr=[np.maximum(obs, floor) - np.maximum(lo, floor),
-                      np.maximum(hi, floor) - np.maximum(obs, floor)], fmt="o")
-    ax.plot([floor, 1], [floor, 1], "k:", lw=1)
-    ax.set(xscale="log", yscale="log", xlabel="stated error (quality bin)",
-           ylabel="observed error (95 % CI)", title="Quality calibration")
+    quality_calibration(ax, r["calibration"])
     plots.append(_save(fig, folder, "quality_calibration.png",
-                       "Stated against observed error rate, bases binned by quality"))
+                       "Stated against observed error rate, bases binned by quality (a bin "
+                       "without an error: its 95 % upper bound 3/n, arrow down)"))
     return plots
 
 

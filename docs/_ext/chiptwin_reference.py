@@ -160,6 +160,8 @@ def _allowed(f: dataclasses.Field) -> str:
     lo = None if lo is not None and lo <= -_UNBOUNDED else lo
     hi = None if hi is not None and hi >= _UNBOUNDED else hi
     integer = m.get("kind") is int
+    if m.get("zero") and lo is not None and hi is not None:  # 0 means something else
+        return f"0 ({m['zero']}) or {_num(lo)} … {_num(hi)}"
     if lo is not None and hi is not None:
         if m.get("lo_open"):
             return f"> {_num(lo)} and ≤ {_num(hi)}"

@@ -74,7 +74,8 @@ def test_typo_suggests_the_key(small_toml):
 
 def test_set_overrides_meet_the_same_checks(small_toml):
     assert load_scenario(small_toml, ["chip.adc.bits=12"]).chip.adc.bits == 12
-    with pytest.raises(ScenarioError, match=r"chip\.adc\.bits = 40: must be an integer in \["):
+    with pytest.raises(ScenarioError, match=r"chip\.adc\.bits = 40: is above the largest "
+                       r"allowed, 24; must be an integer in \["):
         load_scenario(small_toml, ["chip.adc.bits=40"])
     with pytest.raises(ScenarioError, match="section.key=value"):
         load_scenario(small_toml, ["chip.adc.bits"])
