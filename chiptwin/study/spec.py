@@ -287,7 +287,7 @@ def study_from_dict(raw: dict[str, Any], source: str = "<study>", text: str | No
         from chiptwin.study.optimize_spec import read_optimization
 
         return Study(source=source, text=text if text is not None else json.dumps(raw),
-                     axes=(), kind="optimize",
+                     axes=(), kind="optimize", table=json.loads(json.dumps(st, default=str)),
                      **read_optimization(err, st, folder, resolve_scenario))
     for key in st:
         if key not in _STUDY_KEYS:

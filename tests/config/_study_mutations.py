@@ -25,9 +25,11 @@ ROOT = Path(__file__).resolve().parents[2]
 #: two ends against the scene (consistency and the wall-time estimate: ≈ 35 ms a mutation, 2 min
 #: for their ≈ 3,000), which tests/study/test_sensitivity.py covers case by case; nor the
 #: calibrate ones: loading one reads its measured data set (absent where the data are not), and
-#: tests/study/test_calibrate_spec.py refuses each of their keys' bad values case by case.
+#: tests/study/test_calibrate_spec.py refuses each of their keys' bad values case by case; nor the
+#: optimize ones: their keys are not a budget study's (parameter, objective, constraint), and
+#: tests/study/test_optimize_spec.py refuses each of their bad values case by case.
 STUDY_FILES = sorted(p for p in (ROOT / "scenarios" / "studies").glob("*.toml")
-                     if not p.stem.startswith(("sensitivity_", "calibrate_")))
+                     if not p.stem.startswith(("sensitivity_", "calibrate_", "optimize_")))
 
 #: The scenario-level values plus what a study key may wrongly hold: an empty array or table, a
 #: list of tables, a nested table, the empty string, text that looks like a requirement.
