@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 import re
 
-from chiptwin.config.budget import check_budget
 from chiptwin.config.consistency_assay import (
     CALLER_MAX_HOMOPOLYMER,
     _assay,
@@ -35,7 +34,7 @@ from chiptwin.config.consistency_chip import (
 from chiptwin.config.consistency_optics import _optics
 from chiptwin.config.cost import check_wall_time
 from chiptwin.config.schema import CLOCK_MAX_HZ, Scenario
-from chiptwin.config.tiling import check_tile
+from chiptwin.config.tiling import check_budget_simulated, check_tile
 from chiptwin.constants import s_to_ticks
 from chiptwin.dsp.fixed import accumulator_bits_needed
 
@@ -56,7 +55,7 @@ def check_consistency(s: Scenario) -> None:
     # program's stages, and their costs from the register formats
     for rule in (_name, _fidelity, _assay, _cascade, _sites, _optics, _dsp_formats, _dsp_program,
                  _timing, _capacitance, _adc_range, _converter, _memory, _duration,
-                 _matched_filter, check_budget,
+                 _matched_filter, check_budget_simulated,
                  _site_amounts, check_tile, check_wall_time):
         rule(s)
 

@@ -58,6 +58,7 @@ from chiptwin.config.budget import (
 )
 from chiptwin.config.fields import ScenarioError
 from chiptwin.config.schema import Scenario
+from chiptwin.config.tiling import simulated_scenario
 from chiptwin.constants import N_A, s_to_ticks
 
 #: Per run: scene preparation, coupling, outputs gathered (not the interpreter's start). Unit: s
@@ -266,8 +267,9 @@ def law_comparison_seconds(pair: tuple[Scenario, Scenario]) -> float:
 
 def wall_estimate(s: Scenario, beside: bool = True) -> list[CostTerm]:
     """The run's wall time, term by term. Unit: s. ``beside``: with the physical law's two
-    expected-level runs a paper-convention scene adds (``summary['physical_law']``)."""
-    terms = _own_terms(s)
+    expected-level runs a paper-convention scene adds (``summary['physical_law']``). A tiled
+    run (``[run] tile``) is estimated on the pixels and sites it simulates."""
+    terms = _own_terms(simulated_scenario(s))
     if beside and s.run.beside_physical_law and physical_law_applies(s):
         two = law_comparison_seconds(law_comparison(s))
         if two <= PHYSICAL_LAW_MAX_S:  # as chiptwin.twin.physical_law.beside decides

@@ -36,6 +36,15 @@ from chiptwin.config.schema_ranges import (
     VOLTS,
 )
 
+#: ``[assay] chemistry`` presets: "" (none: the scene's own keys) and the fitted ones
+#: (chiptwin.kinetics.chemistry_presets.PRESET_NAMES, kept equal by a test).
+CHEMISTRIES = ("", "454_flx", "454_titanium", "ion_pgm")
+
+#: The flow-value model's keys of ``[assay]`` (chiptwin.kinetics.chemistry.FlowModel).
+CHEMISTRY_KEYS = ("chemistry", "flow_yield_cv", "flow_noise_sd", "flow_background",
+                  "well_noise_cv", "homopolymer_yield_loss", "empty_flow_law", "empty_flow_mean",
+                  "empty_flow_sd")
+
 ASSAY_KINDS = ("pyrosequencing", "atp", "luciferase_label", "substrate", "catalyst", "flux")
 
 #: Keys of ``[assay]`` that each kind uses; any other non-common key is an error for that kind.
@@ -44,7 +53,8 @@ ASSAY_KIND_KEYS: dict[str, frozenset[str]] = {
         {"dna_fmol", "template", "key", "flow_order", "n_flows", "flow_period_s", "k_t_per_s",
          "k_a_per_s", "quantum_yield", "photons_per_incorporation", "template_length",
          "template_gc", "template_homopolymer_p", "template_homopolymer_max", "template_seed",
-         "incomplete_extension", "carry_forward", "droop_per_flow", "dna_cv", "caller"}
+         "incomplete_extension", "carry_forward", "droop_per_flow", "dna_cv", "caller",
+         *CHEMISTRY_KEYS}
     ),
     "atp": frozenset({"atp_fmol", "turnover_per_s", "quantum_yield"}),
     "luciferase_label": frozenset({"luciferase_amol", "turnover_per_s", "quantum_yield"}),
@@ -134,6 +144,46 @@ class Assay:
         "round", choices=("round", "dephase"),
         doc="base caller: round (each flow value rounded) or dephase (phase-correcting, "
             "Eltoukhy & El Gamal, ICASSP 2006), both with phred qualities")
+    # the flow-value model (chiptwin.kinetics.chemistry): what a phase-corrected flow reads
+    chemistry: str = param(
+        "", kind=str, choices=CHEMISTRIES,
+        doc="named chemistry fitted to real runs (454 GS FLX, GS FLX Titanium flow-value "
+            "profiles; Ion PGM reads against their reference): sets the flow_* , well_*, "
+            "homopolymer_* and empty_flow_* keys below; keys the scene gives override it; "
+            "\"\" = none, the scene's own keys")
+    flow_yield_cv: float = param(
+        0.0, lo=0.0, hi=0.5,
+        doc="CV of each flow's light per well (reagent delivery, enzyme turnover flow by "
+            "flow): a flow-value spread growing with the homopolymer; 0 = none; 454 FLX "
+            "0.06; ≤ 0.5, where a 2-mer reads as a 1-mer one flow in three")
+    flow_noise_sd: float = param(
+        0.0, lo=0.0, hi=0.5,
+        doc="sd of additive light in every flow, 1-mer units; 0 = none; 454 FLX 0.059, Ion "
+            "0.13; ≤ 0.5, half a base (no call survives it)")
+    flow_background: float = param(
+        0.0, lo=-0.2, hi=0.2,
+        doc="mean of that additive light, 1-mer units (light is clipped at 0); 454 FLX "
+            "+0.015 (its 1-mers read 1.013); within ±0.2, a fifth of a base")
+    well_noise_cv: float = param(
+        0.0, lo=0.0, hi=3.0,
+        doc="CV of each well's noise level (gamma law, drawn per site): peaked values with "
+            "long tails; 0 = every well alike; 454 ≈ 0.9–1.0; ≤ 3, beyond any fitted run")
+    homopolymer_yield_loss: float = param(
+        0.0, lo=0.0, hi=0.2,
+        doc="light lost per base past the first of a homopolymer (h-mer reads "
+            "h·(1 − κ)^(h−1)); 0 = linear; Ion 0.004; ≤ 0.2, an 8-mer reading 1.7 bases low")
+    empty_flow_law: str = param(
+        "lognormal", kind=str, choices=("lognormal", "normal"),
+        doc="law of the light of a flow that extends nothing: lognormal (454: Balzer et al., "
+            "Bioinformatics 26:i420, 2010) or normal")
+    empty_flow_mean: float = param(
+        0.0, lo=-0.5, hi=0.5,
+        doc="mean of that empty-flow light, 1-mer units; 0 = none; 454 FLX 0.070, Titanium "
+            "0.10; within ±0.5 (a 0-mer beyond reads as a 1-mer); ≥ 0 for the lognormal")
+    empty_flow_sd: float = param(
+        0.0, lo=0.0, hi=0.5,
+        doc="sd of the empty-flow light, 1-mer units; 0 = a constant; 454 FLX 0.015, Ion 0.5 "
+            "(a light near 0 in most flows, bright in a few); ≤ 0.5, half a base")
     # ATP assay (eq. 12) and luciferase label (eq. 13)
     atp_fmol: float = param(1.0, lo=FMOL_MIN, hi=FMOL_MAX,
                             doc="fmol ATP, V·[ATP0], " + AMOUNTS)
@@ -453,6 +503,13 @@ class Run:
         3600.0, lo=1.0, hi=1e7,
         doc="s of wall time a run may be estimated at (chiptwin.config.cost) before it is "
             "refused; default 1 hour (CHOICE: an interactive run; a longer one is asked for)")
+    tile: str | int = param(
+        "off", kind=(str, int), lo=1, hi=4096,
+        doc='"off"; "auto"; or a tile side in pixels, a multiple of the site pitch, 1 … 4096 '
+            "(the largest array): a periodic site layout run as 9 tiles (4 corners, 4 edges, "
+            "the interior) with every neighbour's light, its figures scaled to the array "
+            '(chiptwin.twin.tile; "auto" runs the whole array where the layout is not '
+            "periodic, a size refuses it)")
     fidelity: Fidelity = field(default_factory=Fidelity)
     error_budget: ErrorBudget = field(default_factory=ErrorBudget)
 

@@ -69,6 +69,7 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str]] = {
                            "photons reaching each site's pixel in each integration window"),
     "site_snr_power": (("site",), "1", "per-site SNR, power ratio (eq. 22)"),
     "site_called_right": (("site",), "1", "the site's whole read equals the template"),
+    "site_weight": (("site",), "1", "array sites each simulated site stands for (run.tile)"),
     "flow_values": (("site", "flow"), "bases", "flow value normalised by the key's 1-mers"),
     "flow_sums_e": (("site", "flow"), E, "the light of each flow's window"),
     "read_calls": (("site", "flow"), "bases", "bases called in each flow"),

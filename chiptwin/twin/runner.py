@@ -25,7 +25,7 @@ from chiptwin.constants import TICKS_PER_S
 from chiptwin.detection import SNR_DEFINITION, required_signal_e, window_sums
 from chiptwin.dsp.pipeline import BlockOut, FrameStack, Pipeline, chain_for
 from chiptwin.dsp.program import is_default
-from chiptwin.twin import levels, physical_law, shortcuts, stages
+from chiptwin.twin import levels, physical_law, shortcuts, stages, tile
 from chiptwin.twin.frame_reader import FrameReader, frames_file
 from chiptwin.twin.results import detect, light_decay_per_s
 from chiptwin.twin.scene import ChainOutput, Scene, StageTimer, stage_rng
@@ -103,10 +103,17 @@ def run_prepared(s: Scenario, scene: Scene, timer: StageTimer | None = None,
     timer = timer or StageTimer()
     rec = Recorder(frame_steps=frame_steps)
     frames_path = frames_file() if s.run.save_frames else None
-    out = simulate(s, scene, s.run.fidelity.photons, stage_rng(s.scenario.seed, "pixel"), rec,
-                   timer, progress, sites=stages.site_pixel_indices(s), frames_path=frames_path)
+    tiled = scene.tile  # a tiled run reads its simulated sites as a scenario of their own
+    s_run = s if tiled is None else tiled.simulated(s)
+    out = simulate(s_run, scene, s.run.fidelity.photons, stage_rng(s.scenario.seed, "pixel"),
+                   rec, timer, progress, sites=stages.site_pixel_indices(s_run),
+                   frames_path=frames_path)
     with timer("detection"):
-        summary, arrays = detect(s, scene, out)
+        summary, arrays = detect(s_run, scene, out)
+        if tiled is not None:
+            tile.scale(s, tiled, scene.tile_section, scene.sch, out, summary, arrays)
+        elif scene.tile_section is not None:  # "auto" on a scene it cannot tile
+            summary["tiled"] = scene.tile_section
         if s.assay.kind == "flux":
             idx = stages.site_pixel_indices(s)
             summary["required_flux_photons_per_s_per_um2"] = _required_flux(s, idx)
@@ -170,15 +177,23 @@ def prepare(s: Scenario, timer: StageTimer | None = None) -> Scene:
     _check_resolved(s)
     timer = timer or StageTimer()
     sch = Schedule.from_chip(s.chip, s.run.duration_s)
+    with timer("optics"):
+        tiled = tile.tile(s)  # [run] tile: the simulated sites, their light (None: off)
+    plan = tiled.plan if tiled is not None else None
+    s_run = s if plan is None else plan.scenario  # whose sites and pixels are simulated
     with timer("kinetics"):
-        source = stages.light_source(s)
+        source = stages.light_source(s_run)
         edges = np.array([sch.window_s(k) for k in range(sch.n_frames)]).reshape(-1)
         # integration windows only (not the gaps between them), as a copy: a strided view would
         # keep the whole (n_sites, 2·n_frames) array alive for the run
         site_photons = np.ascontiguousarray(source.photons(edges)[:, ::2])
     with timer("optics"):
-        coupling = stages.coupling(s)
-    return Scene(sch, source, site_photons, coupling, chip_sensor(s))
+        coupling = stages.coupling(s) if plan is None else tiled.coupling
+    scene = Scene(sch, source, site_photons, coupling, chip_sensor(s_run), tile=plan,
+                  tile_section=None if tiled is None else tiled.section)
+    if plan is not None:  # the whole array's optics figures, not the simulated grid's
+        scene.once("optics", lambda: tiled.optics)
+    return scene
 
 
 def chip_sensor(s: Scenario) -> stages.SensorModel:

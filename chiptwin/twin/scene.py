@@ -21,6 +21,7 @@ from scipy import sparse
 from chiptwin import pixel
 from chiptwin.chip import ChipRun, Schedule
 from chiptwin.config.budget import moments_kept
+from chiptwin.config.tiling import TilePlan
 from chiptwin.dsp.pipeline import Pipeline
 from chiptwin.limits import frames_per_block
 from chiptwin.twin import stages
@@ -93,6 +94,11 @@ class Scene:
     site_photons: np.ndarray
     coupling: np.ndarray
     sensor: stages.SensorModel
+    #: ``[run] tile``: the simulated sites of a tiled run (:mod:`chiptwin.twin.tile`; the
+    #: scene's pixels are theirs, its schedule the array's), None when the array runs whole.
+    tile: TilePlan | None = None
+    #: ``summary['tiled']`` (None when ``[run] tile = "off"``).
+    tile_section: dict | None = None
     _memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property

@@ -20,6 +20,8 @@ from chiptwin.config import Scenario
 from chiptwin.config.budget import amount_key
 from chiptwin.constants import ZERO_C_K
 from chiptwin.kinetics import pyro
+from chiptwin.kinetics.chemistry import FlowModel, flow_light
+from chiptwin.kinetics.chemistry_presets import PRESET_KEYS
 from chiptwin.kinetics.light_source import LightSource, Replicated
 from chiptwin.kinetics.pulse_train import PulseTrain
 
@@ -75,6 +77,29 @@ def expected_incorporations(s: Scenario) -> np.ndarray:
                                   a.incomplete_extension, a.carry_forward, a.droop_per_flow)[0]
 
 
+def flow_model(s: Scenario) -> FlowModel | None:
+    """The scene's flow-value model (``[assay]`` flow_*, well_*, homopolymer_*, empty_flow_*
+    keys, or a named chemistry's), or None when it changes no flow's light."""
+    a = s.assay
+    if a.kind != "pyrosequencing":
+        return None
+    model = FlowModel(**{k: getattr(a, k) for k in PRESET_KEYS})
+    return model if model.active else None
+
+
+def site_incorporations(s: Scenario, n: int) -> np.ndarray:
+    """Each site's light per flow in incorporations per strand: the flowgram
+    (:func:`expected_incorporations`) for every site, or with a flow-value model
+    (:func:`chiptwin.kinetics.chemistry.flow_light`) each site's and flow's own, drawn from the
+    run's ``flow_yield`` stream. Shape (n_flows,) or (n, n_flows)."""
+    signal = expected_incorporations(s)
+    model = flow_model(s)
+    if model is None:
+        return signal
+    return flow_light(signal, flow_program(s)[1], model,
+                      stage_rng(s.scenario.seed, "flow_yield"), n)
+
+
 def site_copies(s: Scenario, n: int) -> np.ndarray:
     """Each site's DNA copies relative to ``dna_fmol``: 1, or with ``[assay] dna_cv`` a gamma
     draw of mean 1 and that coefficient of variation per site, from the run's ``dna_copies``
@@ -103,9 +128,16 @@ def light_source(s: Scenario) -> LightSource:
     n = len(site_pixels(s))
     if s.run.fidelity.kinetics == "cascade":
         return _cascade_source(s, n)
-    if n > 1 and site_scale(s) is None and not s.assay.dna_cv:  # identical sites: shared
+    if n > 1 and identical_sites(s):  # identical sites: shared
         return Replicated(_closed_form_source(s, 1), n)
     return scale_source(s, _closed_form_source(s, n))
+
+
+def identical_sites(s: Scenario) -> bool:
+    """Every site emits the same light (closed forms): no per-site amounts, DNA draws or
+    flow-value model draws (a tiled run books a neighbour's light to the site standing for it,
+    exact only then: :mod:`chiptwin.twin.tile`)."""
+    return site_scale(s) is None and not s.assay.dna_cv and flow_model(s) is None
 
 
 def assay_amount_fmol(s: Scenario) -> float:
@@ -152,7 +184,7 @@ def _closed_form_source(s: Scenario, n: int) -> LightSource:
     a = s.assay
     if a.kind == "pyrosequencing":
         return kinetics.pyrosequencing(
-            a.dna_fmol * FMOL * site_copies(s, n), expected_incorporations(s), a.flow_period_s,
+            a.dna_fmol * FMOL * site_copies(s, n), site_incorporations(s, n), a.flow_period_s,
             start_s=a.start_s,
             turnover_per_s=a.k_t_per_s, apyrase_per_s=a.k_a_per_s, alpha=a.quantum_yield,
             photons_per_incorporation=a.photons_per_incorporation or None,
@@ -335,20 +367,7 @@ def _sparse_coupling(s: Scenario, rc: np.ndarray) -> sparse.csr_matrix:
     itself is then left out.
     """
     chip = s.chip
-    if s.assay.kind == "flux" or s.optics.coupling == "lens":
-        gain = 1.0 if s.assay.kind == "flux" else _lens_efficiency(s)
-        kernel, radius = np.full((1, 1), gain), 0
-    else:
-        radius = 2
-        while True:
-            n = 2 * radius + 1
-            k = _optics_grid(s, np.arange(n), np.arange(n), np.array([[radius, radius]]))
-            kernel = k.reshape(n, n) * s.optics.transmission
-            ring = np.max(np.concatenate([kernel[0], kernel[-1], kernel[:, 0], kernel[:, -1]]))
-            if ring < limits.COUPLING_DROP_RTOL * kernel[radius, radius] or n > max(chip.rows,
-                                                                             chip.cols):
-                break
-            radius *= 2
+    kernel, radius = coupling_kernel(s)
     dr, dc = np.nonzero(kernel >= limits.COUPLING_DROP_RTOL * kernel[radius, radius])
     values = kernel[dr, dc]
     r = rc[:, :1] + (dr - radius)[None, :]
@@ -358,6 +377,45 @@ def _sparse_coupling(s: Scenario, rc: np.ndarray) -> sparse.csr_matrix:
     data = np.broadcast_to(values[None, :], r.shape)
     return sparse.csr_matrix((data[inside], ((r * chip.cols + c)[inside], site[inside])),
                              shape=(chip.n_pixels, len(rc)))
+
+
+def coupling_kernel(s: Scenario, mirrored: bool = False) -> tuple[np.ndarray, int]:
+    """One site's share of its photons on each pixel of a ``(2R + 1)²`` grid around it, and R.
+
+    R grows (doubling from 2) until the kernel's outer ring is below
+    :data:`~chiptwin.limits.COUPLING_DROP_RTOL` of its centre, or it covers every pixel-site
+    offset of the array (R ≥ its rows and columns − 1; it stopped at half that before, leaving
+    out the far light of a small array under a lid); light
+    at the sensor (``flux``) and a lens have a kernel of one pixel. The shares include
+    ``optics.transmission``. Pixels of the ring or beyond are what the sparse coupling leaves
+    out (:func:`_sparse_coupling`).
+
+    ``mirrored``: one quadrant (offsets 0 … R) computed and mirrored into the other three, a
+    quarter of the work: the site sits at its pixel's centre over a diode centred in its pixel,
+    so a share depends on the offsets' magnitudes only (equal to the whole grid's within
+    rounding; tested). A tiled run's kernel (:mod:`chiptwin.twin.tile`); the whole array's
+    sparse coupling keeps the whole grid's bits.
+    """
+    chip = s.chip
+    if s.assay.kind == "flux" or s.optics.coupling == "lens":
+        gain = 1.0 if s.assay.kind == "flux" else _lens_efficiency(s)
+        return np.full((1, 1), gain), 0
+    radius = 2
+    while True:
+        n = 2 * radius + 1
+        if mirrored:
+            q = _optics_grid(s, np.arange(radius + 1), np.arange(radius + 1),
+                             np.array([[0, 0]])).reshape(radius + 1, radius + 1)
+            k = np.concatenate([q[:0:-1], q])
+            k = np.concatenate([k[:, :0:-1], k], axis=1)
+        else:
+            k = _optics_grid(s, np.arange(n), np.arange(n), np.array([[radius, radius]]))
+        kernel = k.reshape(n, n) * s.optics.transmission
+        ring = np.max(np.concatenate([kernel[0], kernel[-1], kernel[:, 0], kernel[:, -1]]))
+        if (ring < limits.COUPLING_DROP_RTOL * kernel[radius, radius]
+                or radius >= max(chip.rows, chip.cols) - 1):  # every offset in the array
+            return kernel, radius
+        radius *= 2
 
 
 @dataclass(frozen=True)
