@@ -30,6 +30,29 @@ def _assay(s: Scenario) -> None:
               f"must be a non-empty prefix of the template {_short(a.template)!r}")
     _key_flows(s)
     _long_reads(s)
+    _chemistry(s)
+
+
+#: The flow-value model's keys that change a flow's light (chiptwin.kinetics.chemistry).
+FLOW_MODEL_KEYS = ("flow_yield_cv", "flow_noise_sd", "flow_background", "well_noise_cv",
+                   "homopolymer_yield_loss", "empty_flow_mean", "empty_flow_sd")
+
+
+def _chemistry(s: Scenario) -> None:
+    """A lognormal empty-flow light has a mean >= 0; the cascade makes its own light per flow
+    (the flow-value model scales the closed form's)."""
+    a = s.assay
+    if a.empty_flow_law == "lognormal" and a.empty_flow_mean < 0:
+        _fail(s, "assay.empty_flow_mean", a.empty_flow_mean,
+              "must be >= 0 with empty_flow_law = \"lognormal\" (light is not negative); "
+              "use \"normal\" for a law whose mean may be below 0")
+    if s.run.fidelity.kinetics == "cascade":
+        for key in FLOW_MODEL_KEYS:
+            if getattr(a, key):
+                _fail(s, f"assay.{key}", getattr(a, key),
+                      "must be 0 with run.fidelity.kinetics = \"cascade\" (the flow-value "
+                      "model scales the closed form's light per flow); use closed_form, or "
+                      "no [assay] chemistry")
 
 
 #: The longest homopolymer the phase-correcting caller resolves (bases): its posterior runs

@@ -27,6 +27,7 @@ SHORTER: dict[str, list[str]] = {
     "pyro_paper_yield_fast": ["assay.n_flows=8", "assay.flow_period_s=4.0",
                               "run.duration_s=34.0"],
     "pyro_long_read": ["assay.n_flows=32", "run.duration_s=1940.0"],
+    "pyro_454_flx": ["assay.n_flows=32", "run.duration_s=1940.0"],
 }
 
 #: ``set`` keys of the tiny studies: the first 8 flows of pyro_1fmol (the key's four 1-mers,
