@@ -102,9 +102,9 @@ def call_reads(s: Scenario, values: np.ndarray, var_e2: np.ndarray, ref_e: np.nd
                 else call_rounded(y, flows, noise))
 
     # the caller's kernels release the GIL: reads in threads, each read's result independent of
-    # the thread count (no random draws)
+    # the thread count (no random draws); both callers' qualities read the phasing model
     workers = min(available_cores(), len(values))
-    if workers <= 1 or a.caller != "dephase":
+    if workers <= 1:
         return [one(j) for j in range(len(values))]
     with ThreadPoolExecutor(workers) as pool:
         return list(pool.map(one, range(len(values))))

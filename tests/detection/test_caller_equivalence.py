@@ -1,0 +1,134 @@
+"""The fast caller against the caller as first written: the checkpointed phasing model is the
+flowgram predicted from flow 0, bit for bit; the incremental sweep and hill climb give the same
+calls and the same likelihoods as the kernels that predicted the whole flowgram for every step
+and candidate (``tests/detection/naive_caller.py``); and the bundled scenes still call what they
+called before the change (regression: digests recorded on the unchanged code, at the scenes' own
+seeds; ``python -m tests.detection.test_caller_equivalence`` prints them again)."""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+import pytest
+
+from chiptwin.detection import _read_kernels as rk
+from chiptwin.detection import reads
+from chiptwin.kinetics import _phasing_kernels as pk
+from chiptwin.kinetics import phasing, templates
+from tests.detection import naive_caller as naive
+
+#: sha256 (first 16 hex digits) of every site's calls (int64, sites × flows), recorded before
+#: the incremental kernels replaced the naive ones (the chip model as of that commit).
+BUNDLED_CALLS = {
+    ("pyro_1fmol", ()): "eaa2ac55b4b6f8d9",
+    ("pyro_1fmol", ('assay.caller="dephase"',)): "fe0e6b05ed872a96",
+    ("pyro_long_read", ()): "c23c682d34b03059",
+}
+
+
+def calls_digest(calls: np.ndarray) -> str:
+    return hashlib.sha256(np.ascontiguousarray(calls, dtype=np.int64).tobytes()).hexdigest()[:16]
+
+
+def _phased_read(rng, n_flows, eps, lam, droop, sigma):
+    t = "TCAG" + templates.draw_template(n_flows, 0.5, 0.3, 6, rng)
+    s, _, ideal = phasing.phased_signal(t, "TACG", n_flows, eps, lam, droop)
+    noise = reads.FlowNoise(sigma**2, (sigma / 2) ** 2)
+    return s + rng.normal(0, 1, n_flows) * np.sqrt(noise.var(s)), noise
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_checkpointed_model_is_the_flowgram_from_flow_0(seed):
+    """Run whole, then again from every checkpoint: each equals phase_flows bit for bit, and no
+    flow reads a template position beyond its recorded reach (the reach of flow k bounds what a
+    change of the template can leave unchanged)."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(20, 300))
+    tmpl = rng.integers(0, 4, int(rng.integers(5, 250))).astype(np.int64)
+    flows = np.array([3, 0, 1, 2])[np.arange(n) % 4]
+    par = (0.002, 0.01, 0.001) if seed % 2 else tuple(rng.uniform(0, [0.02, 0.05, 0.01]))
+    ref = pk.phase_flows(tmpl, flows, *par)
+    bufs = pk.model_buffers(n, tmpl.size + 2)
+    run = pk.run_table(tmpl)
+    for k0 in (0, *range(pk.CHECK_EVERY, n, 3 * pk.CHECK_EVERY)):
+        k = pk.model_restore(k0, *bufs[:6])
+        bufs[6][k:] = np.nan
+        pk.model_advance(run, flows, *par, k, n, *bufs)
+        for got, want in zip(bufs[6:9], ref, strict=True):
+            assert np.array_equal(got, want)
+    # cut the template just past each flow's reach: the flows up to it are unchanged
+    reach = bufs[9]
+    for k in range(0, n, 17):
+        if reach[k] + 1 < tmpl.size:
+            cut = pk.phase_flows(tmpl[: reach[k] + 1], flows, *par)
+            assert np.array_equal(cut[0][: k + 1], ref[0][: k + 1])
+
+
+CASES = [  # (ε, λ, droop, 0-mer sd, flows)
+    (0.002, 0.01, 0.001, 0.03, 300),
+    (0.002, 0.01, 0.001, 0.12, 200),
+    (0.0, 0.0, 0.0, 0.06, 400),
+    (0.004, 0.02, 0.002, 0.05, 160),
+    (0.002, 0.01, 0.001, 0.5, 120),  # SNR 2: candidates merge runs past MAX_CALL
+]
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_sweep_and_hill_climb_match_the_naive_kernels(case):
+    """Equivalence: from the rounded calls, the sweep (whole and as the phasing search scores
+    it) and then the hill climb give the naive kernels' calls and negative log-likelihood,
+    exactly, on reads drawn from the twin's phasing model."""
+    eps, lam, droop, sigma, n = case
+    rng = np.random.default_rng(int(sigma * 1000) + n)
+    flows = phasing.flow_indices("TACG", n)
+    for _ in range(3):
+        y, noise = _phased_read(rng, n, eps, lam, droop, sigma)
+        start = np.clip(np.rint(y), 0, reads.MAX_CALL).astype(np.int64)
+        prior = reads.Prior.of(start, flows)
+        for par in ((eps, lam, droop), (0.0, 0.0, 0.0)):
+            for n_iter, n_score in ((4, min(96, n)), (3 * (n // reads.WINDOW + 1), n)):
+                args = (y, flows, *par, start, prior.comp, prior.log_len, noise.floor,
+                        noise.shot, noise.ref, n_score, n_iter, reads.WINDOW)
+                fast, slow = rk.dephase_kernel(*args), naive.dephase_kernel(*args)
+                assert np.array_equal(fast[0], slow[0]) and fast[1] == slow[1]
+            pol = (y, flows, *par, fast[0], prior.comp, prior.log_len, noise.floor, noise.shot,
+                   noise.ref, reads.POLISH_TRY, reads.POLISH_Z, reads.POLISH_ROUNDS)
+            assert np.array_equal(rk.polish_kernel(*pol), naive.polish_kernel(*pol))
+
+
+def test_the_least_term_bounds_every_flows_term():
+    """The hill climb drops a candidate on a lower bound of the flows it has not scored: every
+    flow's share of the negative log-posterior, over lengths, priors and signals, is above it."""
+    rng = np.random.default_rng(5)
+    floor = 1e-4
+    lb = rk.least_term(floor)
+    log_len = np.log(np.r_[1.0, rng.dirichlet(np.ones(reads.MAX_CALL))])
+    n = 5000
+    y, signal = rng.uniform(-1, 8, n), rng.uniform(0, 8, n)
+    signal[::3] = y[::3]  # residual 0: the tightest case
+    calls = rng.integers(0, reads.MAX_CALL + 1, n)
+    p_pos = rng.uniform(rk.P_POS_MIN, 1 - rk.P_POS_MIN, n)
+    cum = np.zeros(n + 1)
+    rk.terms_from(y, signal, calls, floor, 0.0, 0.0, p_pos, log_len, 0, n, 0.0, cum)
+    assert np.all(np.diff(cum) >= lb)
+    assert np.diff(cum).min() < lb + 0.2  # and it is not loose where a flow fits
+
+
+@pytest.mark.parametrize(("scene", "overrides"), list(BUNDLED_CALLS))
+def test_bundled_scenes_call_what_they_called(scene, overrides):
+    """Regression: every site's calls of the bundled scenes at their seeds, against digests
+    recorded before the incremental kernels (the chip model unchanged since: a change upstream
+    of the caller that moves a flow value would need the digests recorded again)."""
+    import chiptwin
+
+    r = chiptwin.run(scene, list(overrides))
+    assert calls_digest(r.arrays["read_calls"]) == BUNDLED_CALLS[(scene, overrides)]
+
+
+if __name__ == "__main__":  # print the digests of the code as it stands
+    import chiptwin
+
+    for scene, overrides in BUNDLED_CALLS:
+        calls = chiptwin.run(scene, list(overrides)).arrays["read_calls"]
+        print(scene, overrides, calls_digest(calls))
