@@ -23,7 +23,8 @@ timed in interleaved rounds (this machine is shared and noisy; medians are repor
 Where the time goes: one frame of the scene on one thread, the chain's work built up a piece at a
 time in small numba loops (:func:`components`): reading the means, NumPy's PTRS Poisson sampler
 (our inline copy), Ahrens & Dieter's, + the read-noise normal, + conversion to volts and the ADC's
-rounding and clipping; beside NumPy's own ``Generator.poisson`` on the same means.
+rounding and clipping; the whole again with numba's reference counting on (an atomic pair around
+every draw: the chain ran 1.5× its floor so); beside NumPy's own ``Generator.poisson``.
 
 Peak memory is measured separately with tracemalloc (NumPy's allocations are traced), Pyxel's
 the same way inside its worker. No timing of another tool is written in this file.
@@ -54,6 +55,7 @@ import numpy as np
 from scipy.special import ndtr
 from scipy.stats import poisson
 
+from chiptwin._numba import NJIT_NORC
 from chiptwin.pixel import (
     _kernels,
     _random,
@@ -140,7 +142,7 @@ def fast(n_threads: int | None, shot_noise: str = "poisson") -> Callable:
     return run
 
 
-@numba.njit(cache=True)
+@NJIT_NORC  # as the chain's loop: no reference counting around each draw (chiptwin._numba)
 def _piece(state, lam, upto, out, full_well, read, pedestal, cg, v_min, lsb, top):
     """The chain's per-pixel work up to piece ``upto`` (see :func:`components`), one value each."""
     for i in range(lam.size):
@@ -161,6 +163,12 @@ def _piece(state, lam, upto, out, full_well, read, pedestal, cg, v_min, lsb, top
         out[i] = _kernels.adc_code(pedestal + e * cg, v_min, lsb, 1.0, 0.0, top)
 
 
+#: :func:`_piece` with numba's reference counting on (``@njit`` as the chain's loop was): the
+#: atomic pair it leaves around every draw, shown beside the pieces (chiptwin._numba.NJIT_NORC).
+#: Not cached: numba's cache keys a function by its name and types, not its options, so this
+#: would share :func:`_piece`'s entry.
+_piece_counted = numba.njit(_piece.py_func)
+
 PIECES = ("read the means (memory traffic)", "Poisson, NumPy's PTRS (inline copy)",
           "Poisson, Ahrens & Dieter (the chain's)", "+ read-noise normal (ziggurat)",
           "+ volts, ADC rounding and clipping")
@@ -179,6 +187,7 @@ def components(scene: dict, rounds: int) -> dict[str, float]:
               (c["v_max_V"] - c["v_min_V"]) / 2.0 ** c["bits"], 2.0 ** c["bits"] - 1)
     runs = {name: (lambda k=k: _piece(state, lam, k, out, *consts))
             for k, name in enumerate(PIECES)}
+    runs["all of it, reference counting on"] = lambda: _piece_counted(state, lam, 4, out, *consts)
     runs["NumPy Generator.poisson (the floor)"] = lambda: gen.poisson(lam)
     runs["sensor_chain, one thread (all of it)"] = lambda: fast(1)(gen, scene, 1)
     best = {}

@@ -71,6 +71,17 @@ NJIT = njit(**NJIT_OPTIONS)
 #: call boundary prevents; measured in chiptwin.pixel._random).
 NJIT_INLINE = njit(inline="always", **NJIT_OPTIONS)
 
+#: ``@NJIT_NORC``: the same without numba's reference counting (its runtime, NRT, off: the
+#: ``_nrt`` option of numba's CPU target). For the loops that draw random numbers and nothing
+#: else. An inlined sampler whose rare path is a call (the ziggurat's edges, Ahrens & Dieter's
+#: steps P–H) leaves an atomic increment and decrement of the source array's reference count
+#: around *every* draw, which numba's pruning does not remove (the call may raise): 9 of a
+#: normal's 11 ns, 18 of a Poisson count and a normal's 33 ns (one thread, measured side by
+#: side; ``benchmarks/bench_sensor_chain.py``). Such a function may not allocate (no
+#: ``np.empty``, no ``.copy()``): its caller, an :data:`NJIT` kernel, allocates and passes the
+#: arrays in. The draws are the same bits.
+NJIT_NORC = njit(_nrt=False, **NJIT_OPTIONS)
+
 # Inlining the samplers' overloads (chiptwin.pixel._random) at numba's IR level trips a pedantic
 # SSA check ("variable ... is not in scope") numba asks to report; the compiled draws are tested
 # bit for bit against NumPy's, so the check is silenced for those overloads only.

@@ -1,20 +1,27 @@
 #!/usr/bin/env bash
 # The project's one test command, for a fresh Debian machine with Python 3.11 (and CI):
 #
-#   bash scripts/test.sh [pytest arguments]
+#   bash scripts/test.sh [--all] [pytest arguments]
+#
+# By default the quick tier: every test but the slow tier (tests/conftest.py SLOW, marked
+# `slow`: whole runs, processes, co-simulation, million-draw statistics), under 2 minutes on 2
+# cores. `--all` runs every test, the slow tier too, in one session: what CI runs (.ci/run);
+# `-m slow` runs the slow tier alone. A `-m` of your own replaces the default `-m "not slow"`.
 #
 # 1. Installs what the RTL co-simulation needs when it is missing, with apt-get (as root, or
 #    through passwordless sudo): verilator, iverilog, ccache, g++, make. Tested with Debian 12's
 #    packages: Verilator 5.006 and Icarus Verilog 11.0 (rtl_ref refuses Verilator < 5.0 and
 #    Icarus < 11.0). Set CHIPTWIN_NO_APT=1 to skip this step.
-# 2. python -m pip install -e ".[test]"
-# 3. python -m pytest -n auto --dist loadgroup --durations=15 "$@"   (pytest-xdist: one worker
-#    per core; the modules of tests/conftest.py's XDIST_GROUPS share costly fixtures and each
-#    group runs on one worker, every other test goes where a worker is free; the slowest 15
-#    tests listed at the end; pass -n 0 to run in one process, e.g. with --pdb). The groups
-#    need pytest < 9.2 (the test extra pins it: pytest-dev/pytest-xdist#1386); before that pin
-#    they silently did nothing. With them working, a fresh checkout's suite took 3 min 59 s,
-#    4 min 19 s without them three commits earlier (one run each; two optics speed-ups between).
+# 2. The test extra, installed the way chiptwin is (scripts/pip_install.sh): after a
+#    `pip install .` it stays an installed package (`pip install ".[test]"`, refreshed from this
+#    checkout), else `pip install -e ".[test]"`.
+# 3. python -m pytest -n auto --dist loadgroup --durations=15 [-m "not slow"] "$@"
+#    (pytest-xdist: one worker per core; the modules of tests/conftest.py's XDIST_GROUPS share
+#    costly fixtures and each group runs on one worker, every other test goes where a worker is
+#    free; the slowest 15 tests listed at the end, and any test outside the slow tier that took
+#    1.5 s or more; pass -n 0 to run in one process, e.g. with --pdb). The groups need
+#    pytest < 9.2 (the test extra pins it: pytest-dev/pytest-xdist#1386); before that pin they
+#    silently did nothing.
 #
 # Without the simulators (and no way to install them) the RTL tests skip with a message saying
 # how to install them; with CI=true they fail instead.
@@ -48,5 +55,15 @@ if command -v iverilog >/dev/null 2>&1; then
     echo "test.sh: $(iverilog -V 2>&1 | head -n 1)  (tested: 11.0)" >&2
 fi
 
-"$PY" -m pip install -q -e ".[test]"
-exec "$PY" -m pytest -n auto --dist loadgroup --durations=15 "$@"
+bash scripts/pip_install.sh "$PY" test
+
+tier=(-m "not slow")  # the quick tier, unless --all or a -m of the caller's
+args=()
+for a in "$@"; do
+    case "$a" in
+        --all) tier=() ;;
+        -m|-m*) tier=(); args+=("$a") ;;
+        *) args+=("$a") ;;
+    esac
+done
+exec "$PY" -m pytest -n auto --dist loadgroup --durations=15 "${tier[@]}" "${args[@]}"

@@ -75,6 +75,9 @@ REDUCED = {
     "pyro_paper_yield": ["assay.n_flows=8", "run.duration_s=500.0"],
     "pyro_paper_yield_fast": ["assay.n_flows=8", "assay.flow_period_s=4.0",
                               "run.duration_s=34.0"],
+    # 16 flows of its 400 on 4 × 8 sites: the chemistry preset's light, the dephase caller
+    "pyro_454_flx": ["assay.n_flows=16", "run.duration_s=1000.0", "chip.rows=4",
+                     "chip.cols=8"],
 }
 
 
@@ -141,8 +144,9 @@ XDIST_GROUPS = {
 
 
 #: The slow tier, marked ``slow`` here rather than at each test so that the whole tier reads in
-#: one place: ``bash scripts/test.sh -m "not slow"`` is the quick loop (about 1 min on 2 cores),
-#: CI and a plain ``scripts/test.sh`` run every test. Slow are the tests of ≥ 1 s on 2 cores
+#: one place: a plain ``bash scripts/test.sh`` is the quick loop (``-m "not slow"``, under 2 min
+#: on 2 cores), ``bash scripts/test.sh --all`` runs every test, as CI does (.ci/run). Slow are
+#: the tests of ≥ 1 s on 2 cores
 #: (junit durations, warm numba cache): whole runs that write their figures, processes
 #: (kill/resume, pools, Dask, the benchmark scripts), co-simulation, traced memory, sweeps of
 #: thousands of mutated files, million-vector cross-checks; and the modules whose shared fixture
@@ -165,6 +169,11 @@ SLOW = {
     "tests/characterize/test_twin.py",
     "tests/study/test_bundled.py",  # the `frame_memory_result` study
     "tests/study/test_outputs.py",
+    "tests/study/test_optimize.py",  # whole design searches (a grid, resumption, the CLI)
+    "tests/study/test_least.py::test_pyro_1fmol_needs_264192_bits_not_the_grids_524288",
+    "tests/study/test_least.py::test_the_schedules_memory_runs_and_one_frame_less_is_refused",
+    "tests/study/test_least.py::test_a_memory_study_states_the_schedules_need_checked_by_a_run",
+    "tests/docs/test_answers.py::test_the_cheap_entries_rerun_to_the_same_numbers",
     "tests/docs/test_site.py",  # every built page in Chromium (skips when the site is not built)
     # whole runs, traced memory, sweeps
     "tests/config/test_budget.py::test_memory_estimate_is_above_what_a_run_holds",
@@ -182,6 +191,7 @@ SLOW = {
     "tests/test_run.py::test_every_bundled_scenario_writes_its_outputs",
     "tests/test_run.py::test_output_folder_is_never_a_stranger",
     "tests/test_run.py::test_closed_form_run_is_the_simpy_run",
+    "tests/test_figures_read.py::test_a_runs_figures_use_them",
     "tests/test_fidelity.py::test_auto_is_cheaper_than_the_reference_and_within_its_budget",
     "tests/test_fidelity.py::test_a_study_resolves_auto_once_per_point_and_runs_the_level_it_picks",
     "tests/test_fidelity.py::test_calibration_is_cached_per_scene",
@@ -189,6 +199,13 @@ SLOW = {
     "tests/test_adc_levels.py::"
     "test_auto_keeps_as_built_within_a_tight_budget_and_takes_ideal_within_a_loose_one",
     "tests/test_shortcuts.py::test_converters_as_built_are_carried_with_their_pixels",
+    "tests/test_tile.py::test_tiled_pyro_array_256_agrees_with_the_whole_array_within_monte_carlo",
+    "tests/test_tile.py::"
+    "test_at_the_expected_level_every_simulated_site_reads_the_whole_arrays_figures",
+    "tests/test_tile.py::test_a_study_replicate_on_a_tiled_scene_is_the_run_at_its_seed",
+    "tests/test_tile.py::test_the_mirrored_kernel_is_the_whole_grids",
+    "tests/test_tile.py::"
+    "test_a_tile_on_a_layout_that_is_not_periodic_is_refused_and_auto_runs_whole",
     "tests/test_ladder.py::test_cli_ladder_writes_its_outputs",
     "tests/fidelity/test_dsp_bound.py",  # fixed and float whole runs, same seeds
     "tests/fidelity/test_coverage.py",  # auto and the reference, 4 seeds each
@@ -219,6 +236,40 @@ SLOW = {
     "tests/dsp/test_dsp_batch.py::test_batch_and_single_jobs_are_the_per_job_pipeline",
     "tests/dsp/test_dsp_routines.py::test_routine_matches_exact_reference",
     "tests/dsp/test_dsp_program.py::test_kinetics_variance_equals_monte_carlo",
+    # measured at ≥ 4.5 s each under load (about 1 s on a quiet machine): pools and Dask,
+    # whole runs through the CLI, the 256 × 256 coupling, the calibrated bench
+    "tests/config/test_budget.py::test_sparse_kernel_radius_is_at_least_the_stage_s",
+    "tests/config/test_budget.py::test_film_table_term_is_above_what_the_tables_hold",
+    "tests/config/test_cost.py::test_the_estimate_is_within_its_factor_of_measured_wall_time",
+    "tests/study/test_execute.py::test_the_table_does_not_depend_on_batching_or_executor",
+    "tests/study/test_execute.py::"
+    "test_an_interrupted_study_keeps_whole_tasks_and_runs_no_stored_row_again",
+    "tests/study/test_execute.py::test_a_cluster_without_workers_exits_2_naming_the_timeout",
+    "tests/study/test_execute.py::test_a_scheduler_file_runs_the_study_on_its_workers",
+    "tests/study/test_sensitivity.py::test_one_and_two_workers_give_identical_tables",
+    "tests/study/test_sensitivity.py::test_the_assumption_that_moves_the_answer_ranks_first",
+    "tests/study/test_calibrate_adc.py::test_a_twin_made_bench_gives_back_its_comparator_noise",
+    "tests/characterize/test_measured.py::test_written_twin_loads_and_reproduces_the_datasheet",
+    "tests/characterize/test_measured.py::test_round_trip_through_the_format",
+    "tests/test_fidelity.py::test_auto_refuses_the_cheap_level_of_each_hard_case",
+    "tests/test_fidelity.py::test_a_run_with_auto_says_why_in_summary_and_report",
+    "tests/test_fidelity.py::test_the_hard_cases_measure_what_they_claim",
+    "tests/chip/test_chip_scale.py::test_an_array_of_sites_gets_its_figures_map_and_histogram",
+    "tests/optics/test_wiring.py::test_jssc2006_faceplate_runs_and_reports",
+    "tests/optics/test_thinfilm.py::test_raytrace_film_tables_interpolate_within_2e_4",
+    "tests/optics/test_thinfilm.py::test_light_tunnels_through_a_thin_low_index_gap",
+    "tests/dsp/test_dsp_program.py::"
+    "test_pyro_1fmol_kinetics_on_chip_matches_the_float_matched_filter",
+    "tests/dsp/test_fixed_properties.py::test_accumulate_into_is_exact",
+    "tests/dsp/test_fixed_properties.py::test_requantize_is_exact",
+    "tests/dsp/test_fixed_properties.py::test_accumulate_full_precision_is_exact",
+    "tests/report/test_vcd.py::test_cli_run_vcd_writes_the_same_bytes",
+    "tests/report/test_vcd.py::test_run_vcd_is_the_trace_event_for_event",
+    "tests/report/test_reads_call.py::test_round_on_ion_flow_signals_makes_the_instruments_calls",
+    "tests/test_run.py::test_cli_run_writes_every_output",
+    "tests/test_run.py::test_expected_level_is_the_mean_of_binned_runs",
+    "tests/pixel/test_norc.py::"  # two fresh compilations of a sampler loop
+    "test_reference_counting_puts_an_atomic_pair_around_each_draw_and_norc_removes_it",
     # statistics and exact references that draw or evaluate millions
     "tests/pixel/test_expected_adc.py::test_sawtooth_series_equals_the_exact_sums",
     "tests/pixel/test_expected_adc.py::"
@@ -249,7 +300,16 @@ SLOW = {
     "tests/dsp/test_fixed_properties.py::test_full_precision_ops_are_exact",
     "tests/dsp/test_fixed_properties.py::test_quantize_is_exact",
     "tests/detection/test_reads.py::test_qualities_are_calibrated_monte_carlo",  # 150 reads
+    "tests/detection/test_qualities.py",  # 400 drawn reads; the Ion set called twice
+    "tests/detection/test_caller_equivalence.py::test_bundled_scenes_call_what_they_called",
+    "tests/detection/test_caller_equivalence.py::"
+    "test_sweep_and_hill_climb_match_the_naive_kernels",  # the naive kernels: 1-2 s a case
     "tests/report/test_sff.py::test_run_writes_reads_sff_biopython_reads_back",  # a whole run
+    # the corners of the study keys: ~180 whole runs of a small scene, 1-12 s each
+    "tests/config/test_corners.py::test_each_key_at_both_ends_runs_or_is_refused",
+    "tests/config/test_corners.py::test_pairs_of_keys_at_their_ends_run_or_are_refused",
+    "tests/config/test_corners.py::test_the_point_like_radius_runs",  # two whole runs
+    "tests/chip/test_silicon.py::test_a_run_reports_its_cost_and_throughput",  # a whole run
 }
 
 #: A test outside the slow tier taking at least this long (setup, call and teardown) is named at
@@ -287,7 +347,8 @@ def pytest_terminal_summary(terminalreporter) -> None:
     took: dict[str, float] = {}
     for reports in terminalreporter.stats.values():
         for r in reports:
-            if getattr(r, "when", None) and "slow" not in getattr(r, "keywords", {}):
+            if getattr(r, "duration", None) is not None and "slow" not in getattr(
+                    r, "keywords", {}):  # test reports (a collection's has no duration)
                 took[r.nodeid] = took.get(r.nodeid, 0.0) + r.duration
     over = sorted(((t, n) for n, t in took.items() if t >= SLOW_S), reverse=True)
     if over:

@@ -110,6 +110,10 @@ SMALLER = {
     # difference only where a site sits far above its noise; as built (isotropic light, the
     # comparator's noise) these scenes' sites have power SNR 50–110 and 1–20
     "luciferase_label": ["assay.luciferase_amol=1.0"],
+    # 16 flows of its 400 (1,000 s of frames, not 24,020) on 4 × 8 sites (not 8 × 16): the
+    # phase-correcting caller, its long-read optics and noise; 97 s → the others' seconds
+    "pyro_long_read": ["assay.n_flows=16", "run.duration_s=1000.0", "chip.rows=4",
+                       "chip.cols=8"],
     "pyro_array_256": [*REDUCED["pyro_array_256"], "assay.dna_fmol=0.1"],
 }
 

@@ -18,13 +18,20 @@ class Progress:
     the time left is the estimate of the units left scaled by measured / estimated so far, which
     holds steady when units differ in cost (a ladder's levels); without, the measured rate. No rate
     is shown before a unit has finished.
+
+    With ``at_most`` (a study that stops early, a bisection) ``total`` is an upper bound: the
+    work may end before it, so a line says "rows 40 of at most 120", without a percentage, a
+    bar's fill or a time left, and :meth:`finish` prints the closing line when the work ends
+    short of it. A total that grows between calls (a search that asks for rows as it goes) is
+    taken as such a bound from then on: the done-equals-total of each of its looks is never
+    shown as 100 %.
     """
 
     PRIOR_UNITS = 4
     TTY_INTERVAL_S, FILE_INTERVAL_S = 1.0, 5.0
 
     def __init__(self, unit: str = "frames", after_s: float = 1.0,
-                 weights: Sequence[float] | None = None) -> None:
+                 weights: Sequence[float] | None = None, at_most: bool = False) -> None:
         self.unit = unit
         self.t0 = time.perf_counter()
         self.after_s = after_s
@@ -33,12 +40,22 @@ class Progress:
         self.per_unit_s: float | None = None  # one estimate for every unit (a study's rows)
         self.start: int | None = None  # units already done when the first call came (resumed)
         self.tty = sys.stderr.isatty()
+        self.at_most = at_most
+        self.seen: tuple[int, int] | None = None  # the last (done, total) reported
+        self.closed = False
 
     def __call__(self, done: int, total: int) -> None:
         now = time.perf_counter()
         if self.start is None:  # measured from the first unit on (not the start-up before it)
             self.start, self.t0 = done, now
+        if self.seen is not None and total != self.seen[1]:
+            self.at_most, self.closed = True, False  # a total that moves was never the whole
+        self.seen = (done, total)
+        if self.at_most:
+            self._bounded(done, total, now)
+            return
         if done >= total:
+            self.closed = True
             if self.last is not None or now - self.t0 > 2.0:
                 self._print(f"{self.unit} {done}/{total} (100 %) in {now - self.t0:.1f} s",
                             done, total)
@@ -54,11 +71,37 @@ class Progress:
                     done, total)
         self.last = now
 
-    def _print(self, text: str, done: int, total: int) -> None:
+    def _bounded(self, done: int, total: int, now: float) -> None:
+        """A line for an upper-bound total: the count and the rate, never a percentage."""
+        interval = self.TTY_INTERVAL_S if self.tty else self.FILE_INTERVAL_S
+        since = now - self.t0 if self.last is None else now - self.last
+        if since < (self.after_s if self.last is None else interval):
+            return
+        n, elapsed = done - (self.start or 0), now - self.t0
+        rate = f", {n / elapsed:.3g} {self.unit}/s" if n > 0 and elapsed > 0 else ""
+        self._print(f"{self.unit} {done} of at most {total}{rate}", 0, 1, bar=False)
+        self.last = now
+
+    def finish(self) -> None:
+        """The closing line when the work ended before its total (a study that stopped early),
+        if any line was printed or the work took over 2 s; nothing after a completed total."""
+        if self.closed or self.seen is None:
+            return
+        self.closed = True
+        done, total = self.seen
+        now = time.perf_counter()
+        if self.last is None and now - self.t0 <= 2.0:
+            return
+        text = f"{self.unit} {done} in {now - self.t0:.1f} s"
+        if done < total:
+            text += f" (stopped early: {done} of at most {total})"
+        self._print(text, 1, 1, bar=False)
+
+    def _print(self, text: str, done: int, total: int, bar: bool = True) -> None:
         if self.tty:
             filled = int(30 * done / max(total, 1))
-            bar = "[" + "#" * filled + "." * (30 - filled) + "] "
-            print(f"\r\033[K  {bar}{text}", end="" if done < total else "\n", file=sys.stderr,
+            fill = "[" + "#" * filled + "." * (30 - filled) + "] " if bar else ""
+            print(f"\r\033[K  {fill}{text}", end="" if done < total else "\n", file=sys.stderr,
                   flush=True)
         else:
             print(f"  {text}", file=sys.stderr, flush=True)

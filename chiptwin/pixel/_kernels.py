@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from chiptwin._numba import NJIT, NJIT_INLINE
+from chiptwin._numba import NJIT, NJIT_INLINE, NJIT_NORC
 from chiptwin.pixel._random import poisson, poisson_fast, standard_normal
 
 #: ``shot_noise`` codes of :func:`chain_chunk`.
@@ -187,8 +187,16 @@ def convert_rows(volts, out, v_min, lsb, gain, offset, top, conv, source):
     reference-counts the arrays at each inlined call; measured), against a few ns here. The
     comparator draws are made first, into an array, for the same reason.
     """
+    dither = np.empty(volts.shape if conv[4] > 0.0 else (0, 0))
+    convert_rows_into(volts, out, v_min, lsb, gain, offset, top, conv, source, dither)
+
+
+@NJIT_NORC
+def convert_rows_into(volts, out, v_min, lsb, gain, offset, top, conv, source, dither):
+    """:func:`convert_rows` with the comparator draws' buffer given (``volts.shape`` when
+    ``noise_lsb > 0``, else ``(0, 0)``): it allocates nothing, so it draws without reference
+    counting (``NJIT_NORC``) and the pixel loops, compiled so too, can call it."""
     _, c_gain, c_offset, rows, noise, levels, lut, base, _ = conv
-    dither = np.empty(volts.shape if noise > 0.0 else (0, 0))
     for m in range(dither.shape[0]):
         for i in range(dither.shape[1]):
             dither[m, i] = noise * standard_normal(source)
@@ -315,11 +323,33 @@ def chain_chunk(
     state = shot_state.copy()  # private copies: threads never write neighbouring cache lines
     normal = normal_state.copy()
     n_samples = signal_out.shape[0]
-    built, read_e = conv[0], conv[8]
-    folded = read_e.shape[0] > 0
-    block = CONVERT_BLOCK if built else 0
+    block = CONVERT_BLOCK if conv[0] else 0
     v_reset = np.empty((n_samples if read_reset else 0, block))
     v_signal = np.empty((n_samples, block))
+    dither = np.empty((n_samples, block) if conv[4] > 0.0 else (0, 0))
+    _chain_pixels(
+        state, normal, photons, gain_map, dark_e, qe, full_well, ktc, read_noise, true_cds,
+        read_reset, shot_noise, gauss_min_mean, pedestal, cg_V, v_min, lsb, adc_gain, offset, top,
+        conv, reset_out, signal_out, col0, v_reset, v_signal, dither,
+    )  # fmt: skip
+    shot_state[:] = state
+    normal_state[:] = normal
+
+
+@NJIT_NORC
+def _chain_pixels(
+    state, normal, photons, gain_map, dark_e, qe, full_well, ktc, read_noise, true_cds, read_reset,
+    shot_noise, gauss_min_mean, pedestal, cg_V, v_min, lsb, adc_gain, offset, top, conv,
+    reset_out, signal_out, col0, v_reset, v_signal, dither,
+):  # fmt: skip
+    """:func:`chain_chunk`'s pixel loop, without reference counting (``NJIT_NORC``: an atomic
+    pair around every draw otherwise, half the chain's time); ``v_reset``, ``v_signal`` and
+    ``dither`` are the block buffers its caller allocated (0 columns for the ideal converter;
+    ``dither`` as :func:`convert_rows_into` wants it)."""
+    n_samples = signal_out.shape[0]
+    built, read_e = conv[0], conv[8]
+    folded = read_e.shape[0] > 0
+    block = v_signal.shape[1]
     for i in range(photons.size):
         lam = qe * gain_map[i] * photons[i] + dark_e[i]
         if shot_noise == SHOT_GAUSSIAN:
@@ -354,10 +384,11 @@ def chain_chunk(
             part = (True, conv[1][lo:hi], conv[2][lo:hi], conv[3][lo:hi], *conv[4:])
             consts = (v_min, lsb, adc_gain, offset, top)
             cols = slice(col0 + lo, col0 + hi)
-            convert_rows(v_reset[:, : hi - lo], reset_out[:, cols], *consts, part, normal)
-            convert_rows(v_signal[:, : hi - lo], signal_out[:, cols], *consts, part, normal)
-    shot_state[:] = state
-    normal_state[:] = normal
+            n_reset = v_reset.shape[0]
+            convert_rows_into(v_reset[:, : hi - lo], reset_out[:, cols], *consts, part, normal,
+                              dither[:n_reset, : hi - lo])
+            convert_rows_into(v_signal[:, : hi - lo], signal_out[:, cols], *consts, part, normal,
+                              dither[:, : hi - lo])
 
 
 @NJIT
@@ -384,14 +415,30 @@ def frame_codes(
     into the read noise (``conv[8]``, see :func:`sample_noise`): nothing more is drawn.
     ``codes_out`` is ``(n_frames, 2M, n)``, the M reset codes first.
     """
+    n, built = mean_e.shape[1], conv[0]
+    row = np.empty((1, n if built else 0))
+    dither = np.empty((1, n) if built and conv[4] > 0.0 else (0, 0))
+    scratch = np.zeros((3, n))  # the counts (then the collected charge), signal and reset kTC
+    _frame_loop(
+        source, normal, mean_e, report_pixels, report_e, full_well, ktc, read_noise, true_cds,
+        pedestal, cg_V, v_min, lsb, adc_gain, offset, top, gauss_min_mean, conv, codes_out, row,
+        dither, scratch,
+    )  # fmt: skip
+
+
+@NJIT_NORC
+def _frame_loop(
+    source, normal, mean_e, report_pixels, report_e, full_well, ktc, read_noise, true_cds,
+    pedestal, cg_V, v_min, lsb, adc_gain, offset, top, gauss_min_mean, conv, codes_out, row,
+    dither, scratch,
+):  # fmt: skip
+    """:func:`frame_codes`' loops, without reference counting (``NJIT_NORC``: an atomic pair
+    around every draw otherwise); ``row``, ``dither`` and ``scratch`` its caller allocated."""
     n_frames, n = mean_e.shape
     m = codes_out.shape[1] // 2
     built, read_e = conv[0], conv[8]
     folded = read_e.shape[0] > 0
-    row = np.empty((1, n if built else 0))
-    collected = np.empty(n)
-    k_signal = np.zeros(n)
-    k_reset = np.zeros(n)
+    collected, k_signal, k_reset = scratch[0], scratch[1], scratch[2]
     # the normals of a frame in draw order: kTC (signal, then reset unless true CDS), the M
     # reset sample rows, the M signal sample rows; one call site of the inlined sampler (each
     # site is a copy of the ziggurat for numba to type and compile: five sites cost 25 s of a
@@ -424,6 +471,7 @@ def frame_codes(
                 else:
                     codes_out[f, j, i] = adc_code(volts, v_min, lsb, adc_gain, offset, top)
             if built and j >= 0:
-                convert_rows(
-                    row, codes_out[f, j : j + 1], v_min, lsb, adc_gain, offset, top, conv, normal
-                )
+                convert_rows_into(
+                    row, codes_out[f, j : j + 1], v_min, lsb, adc_gain, offset, top, conv, normal,
+                    dither,
+                )  # fmt: skip
