@@ -289,6 +289,10 @@ SLOW = {
     "tests/kinetics/test_cascade.py::test_source_is_a_light_source_and_photons_integrate_its_rate",
     "tests/kinetics/test_pulse_train.py::test_pyrosequencing_like_train_over_many_windows",
     "tests/kinetics/test_phasing.py::test_cascade_incorporations_equal_the_phasing_model",
+    "tests/kinetics/test_flow_model_caller.py::test_run_keeps_each_reads_corrected_values",
+    "tests/kinetics/test_flow_model_caller.py::test_each_study_replicate_draws_its_own_chemistry",
+    "tests/report/test_flow_profile.py::"
+    "test_twin_check_reads_the_runs_corrected_values_and_states_the_floor",
     "tests/test_detection.py::test_detection_is_one_sided",
     "tests/validation/test_dose_response.py::"
     "test_blank_three_sigma_threshold_gives_the_normal_false_positive_rate",
@@ -330,9 +334,14 @@ def _check_slow_entries() -> None:
                                     "or removed? keep the slow tier true)")
 
 
+def pytest_sessionstart(session) -> None:
+    """Check the slow tier before collecting, on the controller too: raised inside an xdist
+    worker's collection hook, the usage error surfaced only as every group lost."""
+    _check_slow_entries()
+
+
 @pytest.hookimpl(tryfirst=True)  # before xdist's own hook, which reads the marks into node ids
 def pytest_collection_modifyitems(config, items) -> None:
-    _check_slow_entries()
     for item in items:
         module = item.path.relative_to(ROOT).as_posix()
         group = XDIST_GROUPS.get(module)
@@ -365,11 +374,7 @@ def pytest_xdist_node_collection_finished(node, ids) -> None:
     the groups' shared fixtures, and compile their kernels, on every worker unnoticed."""
     if node.config.getoption("dist", default="no") != "loadgroup":
         return
-    # a module wholly in the slow tier, deselected by the quick tier's -m "not slow", reaches
-    # here without its group suffix (seen with pytest 9.0.3 and 9.1.1, xdist 3.8.0); none of it
-    # runs, so it is not a lost group
-    lost = [i for i in ids
-            if i.split("::")[0] in XDIST_GROUPS and i.split("::")[0] not in SLOW and "@" not in i]
+    lost = [i for i in ids if i.split("::")[0] in XDIST_GROUPS and "@" not in i]
     if lost:
         pytest.exit(f"--dist loadgroup groups nothing: {lost[0]} lost its group (pytest "
                     f"{pytest.__version__}, pytest-dev/pytest-xdist#1386): install the test "

@@ -18,6 +18,7 @@ import numpy as np
 
 from chiptwin.study.engine import StudyResult
 from chiptwin.study.files import write_atomic
+from chiptwin.study.least import least_values
 from chiptwin.study.metrics import CATALOGUE
 from chiptwin.study.tornado import sensitivity_markdown, tornado_plot
 from chiptwin.twin.figures import save_figure as _save
@@ -33,6 +34,7 @@ def write_study_outputs(result: StudyResult, out: Path) -> None:
         from chiptwin.study.optimize_outputs import write_optimize_outputs
 
         return write_optimize_outputs(result, out)
+    least_values(result.study, result.summary, result.table)
     write_atomic(out / "results.csv", results_csv(result))
     plots = make_plots(result.summary, out)
     if "sensitivity" in result.summary:
@@ -78,6 +80,8 @@ def answer_lines(summary: dict[str, Any]) -> list[str]:
     for a in summary["answer"]:
         given = condition_label(a["given"], at_reference)
         lines.append((f"[{given}] " if given else "") + a["statement"])
+        lines += [f"  least {key}: {least['text']}" for key, least in a.get("least", {}).items()
+                  if least]
     if "sensitivity" in summary:
         lines.append("SENSITIVITY: " + summary["sensitivity"]["verdict"])
     v = summary["monotonicity"]["violations"]

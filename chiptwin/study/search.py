@@ -20,6 +20,9 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
+#: Statuses of a point that does not meet the requirement (an undecided one counts as not).
+NOT_MET = ("fail", "undecided", "invalid")
+
 UNDECIDED_IS_FAIL = "an undecided point (its interval straddles a threshold at the cap) counts " \
                     "as not meeting the requirement"
 
@@ -93,3 +96,54 @@ def cheapest(costs: Sequence[tuple[int, ...]], decisions: Sequence[str]) -> int 
     is the most significant), or None."""
     passing = [i for i, d in enumerate(decisions) if d == "pass"]
     return min(passing, key=lambda i: costs[i]) if passing else None
+
+
+def least_value(values: Sequence[Any], statuses: Sequence[str], answer: int | None,
+                floor: float | None = None) -> dict[str, Any] | None:
+    """The least value of one budget axis that meets the requirement, as far as the points run
+    along it (the other axes at the answer's values) can tell.
+
+    Parameters
+    ----------
+    values : the axis' values, cheapest first
+    statuses : each value's point status (``pass``, ``fail``, ``undecided``, ``invalid``,
+        ``not_visited``)
+    answer : index of the answer's value, or None (nothing meets the requirement)
+    floor : the least value the key allows (its schema's range), if any
+
+    Returns
+    -------
+    None without an answer; else ``{"least", "between", "resolved", "text"}``: ``between`` is
+    ``[below, answer]`` where ``below`` is the value under the answer that does not meet the
+    requirement (None: the cheapest value tried passes, the need may lie below it);
+    ``resolved`` when nothing lies between them (consecutive integers), and then ``least`` is
+    the answer's value, else None.
+    """
+    if answer is None:
+        return None
+    top = values[answer]
+    if answer == 0 and floor is not None and top == floor:
+        return {"least": top, "between": [None, top], "resolved": True,
+                "text": f"{_fmt(top)}: the least value the key allows"}
+    if answer == 0:
+        return {"least": None, "between": [None, top], "resolved": False,
+                "text": f"at most {_fmt(top)}: the cheapest value tried meets it, the least "
+                        "value may lie below"}
+    below, status = values[answer - 1], statuses[answer - 1]
+    if status not in NOT_MET:  # not run (a bisection's gap) or passing below a violation
+        return {"least": None, "between": [None, top], "resolved": False,
+                "text": f"at most {_fmt(top)}: the value below ({_fmt(below)}) is {status}"}
+    whole = all(isinstance(v, int) and not isinstance(v, bool) for v in (below, top))
+    if whole and top - below == 1:
+        return {"least": top, "between": [below, top], "resolved": True,
+                "text": f"{_fmt(top)} ({_fmt(below)} {status})"}
+    return {"least": None, "between": [below, top], "resolved": False,
+            "text": f"between {_fmt(below)} ({status}) and {_fmt(top)} (pass): the grid does "
+                    "not resolve it"}
+
+
+def _fmt(v: Any) -> str:
+    """``262144`` → ``262,144``; a float in 4 significant digits."""
+    if isinstance(v, int) and not isinstance(v, bool):
+        return f"{v:,}"
+    return f"{v:.4g}" if isinstance(v, float) else str(v)

@@ -107,6 +107,14 @@ def analyse(summary: dict[str, Any], assumptions: tuple[Assumption, ...]) -> dic
     }
 
 
+def _same_swing(a: float | None, b: float | None) -> bool:
+    """Two swings alike: both absent, or equal but for rounding: a geometric grid's ratios of
+    different pairs of its points (0.316/0.0681 and 0.215/0.0464: ×4.6416 both) differ in the
+    6th digit its values are stored to, far below its step (×1.47 for sensitivity_lod)."""
+    return (a is None and b is None) or (a is not None and b is not None
+                                         and math.isclose(a, b, rel_tol=1e-4))
+
+
 def _given_text(given: dict[str, Any]) -> str:
     return "[" + ", ".join(f"{k} = {v}" for k, v in given.items()) + "] " if given else ""
 
@@ -134,9 +142,9 @@ def _section(given: dict, by_condition: list, assumptions: tuple[Assumption, ...
                    + ("the reference answer" if tol == 0 else "one step of the axis")
                    + f" (reference answer {reference['text']})")
     else:
-        tied = [r["key"] for r in ranking[1:]
-                if (r["off_scale"], r["steps"], r["swing"]) ==
-                (top["off_scale"], top["steps"], top["swing"])]
+        tied = [r["key"] for r in ranking[1:]  # the same swing: equal steps of the axis and
+                if (r["off_scale"], r["steps"]) == (top["off_scale"], top["steps"])  # a ratio
+                and _same_swing(r["swing"], top["swing"])]  # equal to float rounding
         verdict = (f"decided by {top['key']}: {top['low']['text']} at {top['range'][0]:g}, "
                    f"{top['high']['text']} at {top['range'][1]:g} (swing {top['swing_text']})"
                    + (f"; tied with {', '.join(tied)}" if tied else ""))

@@ -19,7 +19,8 @@ Tables:
 The rows of one executor task (a few seconds of rows) are committed together as soon as the task
 arrives, in one transaction: a killed study (Ctrl-C, ``kill -9``) keeps every finished task's rows
 whole and none of a task in flight; re-running the same command skips every stored row. A study
-whose file or base scenario changed is refused for resumption, naming what changed.
+whose parsed ``[study]`` table, overrides or base scenario changed is refused for resumption,
+naming what changed (comments and layout of the file are not part of its identity).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from typing import Any
 
 from chiptwin import __version__
 from chiptwin.config import ScenarioError
+from chiptwin.study.readers import identity_table
 
 DB_NAME = "results.sqlite"
 
@@ -187,15 +189,27 @@ def describe_change(old_text: str, old_base: str, new_text: str, new_base: str) 
             return out
         return {prefix.rstrip("."): d}
 
+    def table(text: str) -> dict[str, Any]:  # what the identity reads of the text
+        raw = tomllib.loads(text)
+        return identity_table(raw.get("study", {})) if isinstance(raw, dict) else {}
+
     changes = []
     try:
-        a, b = flat(tomllib.loads(old_text)), flat(tomllib.loads(new_text))
+        a, b = flat(table(old_text)), flat(table(new_text))
         changes += [f"study {k}: {a.get(k)!r} → {b.get(k)!r}" for k in sorted(a.keys() | b.keys())
                     if a.get(k) != b.get(k)]
     except tomllib.TOMLDecodeError:
-        changes.append("the study text")
+        changes.append("the study's parsed [study] table")
     a, b = flat(json.loads(old_base)), flat(json.loads(new_base))
     changes += [f"scenario {k}: {a.get(k)!r} → {b.get(k)!r}" for k in sorted(a.keys() | b.keys())
                 if a.get(k) != b.get(k)]
     shown = "; ".join(changes[:4]) + (f"; and {len(changes) - 4} more" if len(changes) > 4 else "")
-    return shown or "its text (comments or layout)"
+    return shown or IDENTITY_CHANGED
+
+
+#: What changed when the stored study and this one differ in identity but not in any key of their
+#: text or base scenario: the identity is the parsed ``[study]`` table (without where its files
+#: are) with its overrides, not the text, so comments or layout never change it; a folder made by
+#: a chiptwin that identified a study otherwise (by its text) is the usual cause.
+IDENTITY_CHANGED = ("the study's identity: its parsed [study] table or its overrides (or the "
+                    "folder was made by a chiptwin that identified a study by another rule)")
