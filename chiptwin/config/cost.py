@@ -218,8 +218,9 @@ def _level(s: Scenario, stage: str, default: str, order: tuple[str, ...]) -> str
 #: site on each of 128 pixels 0.116 s over 8 flows, 0.190 s over 25, 7.7 ms with 2 sites).
 DETECT_SITE_S: float = 4.0e-5
 DETECT_SITE_FLOW_S: float = 6.0e-5
-#: The dephase caller's cost per read and flow (chiptwin.detection.reads.call_dephased:
-#: phasing search, sweeps, hill climb, averaged posterior): pyro_long_read, 128 reads × 400
+#: The callers' cost per read and flow (chiptwin.detection.reads.read_model: phasing search,
+#: sweeps, hill climb, averaged posterior; ``dephase`` calls from it, ``round`` states its
+#: qualities from the same posterior, so both pay it): pyro_long_read, 128 reads × 400
 #: flows, ≈ 0.1 s a read on one core of a 2-core machine. Unit: s.
 DEPHASE_FLOW_S = 2.5e-4
 
@@ -328,10 +329,10 @@ def _own_terms(s: Scenario) -> list[CostTerm]:
                               "optics.top.medium", per_scene=True))
     terms += _footprint_terms(s)
     terms.append(_detection_term(s))
-    if s.assay.kind == "pyrosequencing" and s.assay.caller == "dephase":
+    if s.assay.kind == "pyrosequencing":
         sites = n_sites(s)
         flows = s.assay.n_flows
-        terms.append(CostTerm(f"the dephase caller: {sites} reads × {flows} flows × "
+        terms.append(CostTerm(f"the {s.assay.caller} caller: {sites} reads × {flows} flows × "
                               f"{DEPHASE_FLOW_S:g} s", sites * flows * DEPHASE_FLOW_S,
                               "assay.caller, assay.n_flows, sites.at_pixels"))
     if kinetics == "cascade":

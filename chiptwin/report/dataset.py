@@ -74,6 +74,8 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str]] = {
     "flow_sums_e": (("site", "flow"), E, "the light of each flow's window"),
     "read_calls": (("site", "flow"), "bases", "bases called in each flow"),
     "read_flowgram_x100": (("site", "flow"), "0.01 bases", "the SFF flowgram (reads.sff)"),
+    "read_corrected": (("site", "flow"), "bases",
+                       "flow value corrected for phasing by the caller's model"),
     "read_true_n": (("flow",), "bases", "bases the template incorporates in each flow"),
     "read_quality": (("read_base",), "Phred",
                      "quality of each called base, the reads one after another"),

@@ -63,7 +63,9 @@ def _call_all(data: FlowgramFile, values: list[np.ndarray], caller: str, noises:
         return mr.call(values[j], flows[:values[j].size], noises[j], caller)
 
     n = len(data.reads)
-    workers = min(available_cores(), n) if caller == "dephase" else 1
+    # both callers cost alike (``round``'s qualities come from the dephasing caller's posterior,
+    # :func:`chiptwin.detection.reads.call_rounded`): threads for both, as the twin's reads use
+    workers = min(available_cores(), n)
     out: list[Read] = []
     # the caller's kernels release the GIL; each read's calls do not depend on the threads
     with ThreadPoolExecutor(max(workers, 1)) as pool:

@@ -157,10 +157,12 @@ def estimate_s(plan: Plan) -> tuple[float, int]:
 
 
 def _scene_per_row(s) -> bool:
-    """Every replicate prepares its scene again: another chip and, with it, the sites' DNA
-    (as ``chiptwin.study.rows`` does)."""
+    """Every replicate prepares its scene again: another chip and, with it, the sites' DNA, or
+    another run of a flow-value model's chemistry (as ``chiptwin.study.rows`` does)."""
+    from chiptwin.twin.stages import flow_model
+
     return (s.chip.fixed_pattern_seed < 0 and s.assay.kind == "pyrosequencing"
-            and bool(s.assay.dna_cv))
+            and bool(s.assay.dna_cv)) or flow_model(s) is not None
 
 
 class Plan:

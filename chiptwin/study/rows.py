@@ -68,6 +68,7 @@ def _scene(task: RowTask, s: Scenario):
     """The point's scene, its ``auto`` fidelity resolved (once per point) and the choice."""
     from chiptwin.fidelity import resolve
     from chiptwin.twin.runner import chip_sensor, prepare
+    from chiptwin.twin.stages import flow_model
 
     # keyed by the point's whole scenario (its seed aside): a point hash names the axis values
     # only, and two studies run in one process (tests, a notebook) may share one
@@ -81,7 +82,9 @@ def _scene(task: RowTask, s: Scenario):
             _SCENES.popitem(last=False)
     _SCENES.move_to_end(key)
     scene, resolved, choice = cached
-    if s.chip.fixed_pattern_seed < 0:  # every replicate another chip: redraw PRNU/DSNU
+    if flow_model(s) is not None:  # every replicate another run: its chemistry's draws (and
+        scene = prepare(replace(resolved, scenario=s.scenario))  # the DNA drawn from its seed)
+    elif s.chip.fixed_pattern_seed < 0:  # every replicate another chip: redraw PRNU/DSNU
         scene = replace(scene, sensor=chip_sensor(s))
         if s.assay.kind == "pyrosequencing" and s.assay.dna_cv:  # ... and its sites' DNA
             scene = prepare(replace(resolved, scenario=s.scenario))

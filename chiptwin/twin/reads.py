@@ -6,6 +6,25 @@ the one the twin predicts for it: the DSP's propagated variance of each flow's w
 (:func:`chiptwin.detection.window_sums`), read at the key's empty and single-base flows (the
 floor and the shot noise per base), and the variance of the key's 1-mer reference itself, all in
 units of that reference (:class:`chiptwin.detection.reads.FlowNoise`).
+
+With a flow-value model (``[assay] chemistry`` or its keys,
+:class:`chiptwin.kinetics.chemistry.FlowModel`) two things follow the chemistry, and only then
+(a scene without one is called exactly as before):
+
+* the key's 1-mer reference is the 1-mer's light alone: the model's additive light
+  (``flow_background``, in 1-mers) rides on every flow, so dividing by the key's 1-mers reads an
+  ``h``-mer as ``(h + a)/(1 + a)``; the values are multiplied back by ``1 + a``
+  (:func:`key_scale`), so an ``h``-mer reads ``h + a`` as the model, fitted to 454's values,
+  says it does (subtracting the key's empty flows instead, as ``normalise_flows`` can, would
+  take the empty flows' own light, 0.07 of a 1-mer on FLX, off every flow and stretch the
+  scale by 1/(1 − 0.07): a 4-mer would read 4.3);
+* the noise the caller weighs a flow with adds the chemistry's own (:func:`site_noise`).
+
+The empty flows' light stays in the values the dephase caller reads: moving each read's 0-mer
+level to 0 first (as :func:`chiptwin.detection.measured_reads.caller_input` does for measured,
+already phase-corrected flowgrams) was measured on ``pyro_454_flx`` and made its phased reads
+worse (read accuracy 0.83 → 0.65–0.79, by the way of moving), though it brought the unphased
+variant's corrected values closer to the FLX profile.
 """
 
 from __future__ import annotations
@@ -26,8 +45,10 @@ from chiptwin.detection.reads import (
     phred,
 )
 from chiptwin.kinetics import pyro
+from chiptwin.kinetics.chemistry import FlowModel
 from chiptwin.kinetics.phasing import flow_indices
 from chiptwin.pixel.chain import available_cores
+from chiptwin.twin.stages import flow_model
 
 #: Flows the phase-corrected flow-value statistics pool (summary ``reads``).
 CORRECTED_STATS_FLOWS = 100
@@ -36,8 +57,8 @@ CORRECTED_STATS_FLOWS = 100
 SFF_MAX_X100 = 65535
 
 
-def site_noise(var_e2: np.ndarray, ref_e: float, ref_sd_e: float, key_n: np.ndarray
-               ) -> FlowNoise:
+def site_noise(var_e2: np.ndarray, ref_e: float, ref_sd_e: float, key_n: np.ndarray,
+               model: FlowModel | None = None) -> FlowNoise:
     """The predicted noise of one site's normalised flow values.
 
     Parameters
@@ -46,11 +67,26 @@ def site_noise(var_e2: np.ndarray, ref_e: float, ref_sd_e: float, key_n: np.ndar
     ref_e : the key's 1-mer level, e⁻ (> 0)
     ref_sd_e : standard deviation of that level, e⁻
     key_n : expected counts of the key flows
+    model : the scene's flow-value model, or None. Its terms in :class:`FlowNoise`'s
+        ``floor + shot·m + ref·m²`` (averaged over the wells' noise levels, mean 1): the
+        additive light's variance and the empty flows' own in ``floor`` (one floor for every
+        flow: the empty flows' variance, 6 % of the additive one's on 454 FLX, is counted on
+        the others too); the yield spread, a multiplicative factor of each flow's light, in
+        ``ref``, with the error it leaves on the key's 1-mer scale (the mean of the key's K
+        1-mers: ``(cv² + sd²)/K``). The dephase caller's rescale
+        (:func:`chiptwin.detection.reads.rescale`) puts its own scale error in ``ref`` after
+        its first pass: the yield spread then counts in that pass only.
     """
     zeros, ones = var_e2[: key_n.size][key_n == 0], var_e2[: key_n.size][key_n == 1]
     floor = float(zeros.mean()) if zeros.size else float(ones.min())
     shot = max(float(ones.mean()) - floor, 0.0)
-    return FlowNoise(floor / ref_e**2, shot / ref_e**2, (ref_sd_e / ref_e) ** 2)
+    noise = FlowNoise(floor / ref_e**2, shot / ref_e**2, (ref_sd_e / ref_e) ** 2)
+    if model is None:
+        return noise
+    cv2, sd2 = model.flow_yield_cv**2, model.flow_noise_sd**2
+    k = int((key_n == 1).sum())
+    return FlowNoise(noise.floor + sd2 + model.empty_flow_sd**2, noise.shot,
+                     noise.ref + cv2 + (cv2 + sd2) / k)
 
 
 def spill_ratio(s: Scenario) -> float:
@@ -72,13 +108,23 @@ def despill(values: np.ndarray, r: float, key_n: np.ndarray) -> np.ndarray:
     return x / np.where(ref > 0, ref, 1.0)[..., None]
 
 
+def key_scale(s: Scenario) -> float:
+    """The factor that turns values normalised by the key's 1-mers into 1-mers of incorporated
+    light: ``1 + a``, ``a`` the flow-value model's additive light (``flow_background``, in
+    1-mers, on every flow, the key's 1-mers too); 1 without a model (module docstring)."""
+    model = flow_model(s)
+    return 1.0 + model.flow_background if model is not None else 1.0
+
+
 def caller_input(s: Scenario, values: np.ndarray) -> np.ndarray:
     """The flow values the caller reads and the SFF stores: as normalised for ``round`` (today's
-    caller); for ``dephase`` also freed of the light spilled from the previous flows."""
-    if s.assay.caller != "dephase":
-        return values
-    key_n = pyro.key_flow_counts(s.assay.key, s.assay.flow_order)
-    return despill(values, spill_ratio(s), key_n)
+    caller); for ``dephase`` also freed of the light spilled from the previous flows. With a
+    flow-value model, scaled by :func:`key_scale`."""
+    if s.assay.caller == "dephase":
+        key_n = pyro.key_flow_counts(s.assay.key, s.assay.flow_order)
+        values = despill(values, spill_ratio(s), key_n)
+    scale = key_scale(s)
+    return values * scale if scale != 1.0 else values
 
 
 def call_reads(s: Scenario, values: np.ndarray, var_e2: np.ndarray, ref_e: np.ndarray,
@@ -91,13 +137,15 @@ def call_reads(s: Scenario, values: np.ndarray, var_e2: np.ndarray, ref_e: np.nd
     flows = flow_indices(a.flow_order, a.n_flows)
     key_n = pyro.key_flow_counts(a.key, a.flow_order)
     gain = 1.0 + spill_ratio(s) ** 2 if a.caller == "dephase" else 1.0  # x_k = y_k − r y_{k−1}
+    model, scale = flow_model(s), key_scale(s)
 
     def one(j: int) -> Read:
         y = np.asarray(values[j], dtype=np.float64)
         if not ref_e[j] > 0:
             y, noise = np.zeros_like(y), FlowNoise(1.0, 0.0, 0.0)
         else:
-            noise = site_noise(var_e2[:, j] * gain, float(ref_e[j]), float(ref_sd_e[j]), key_n)
+            noise = site_noise(var_e2[:, j] * gain * scale**2, float(ref_e[j]),
+                               float(ref_sd_e[j]), key_n, model)
         return (call_dephased(y, flows, noise) if a.caller == "dephase"
                 else call_rounded(y, flows, noise))
 
@@ -122,6 +170,8 @@ def read_figures(s: Scenario, values: np.ndarray, reads: list[Read], true_n: np.
     """``summary['reads']`` and the arrays the SFF and the plots are made from."""
     a = s.assay
     calls = np.array([r.calls for r in reads])
+    corrected = np.array([r.corrected if r.corrected is not None else v
+                          for r, v in zip(reads, values, strict=True)], dtype=np.float64)
     p_err = [r.base_error() for r in reads]
     quals = [phred(p) for p in p_err]
     sites = []
@@ -165,9 +215,7 @@ def read_figures(s: Scenario, values: np.ndarray, reads: list[Read], true_n: np.
         # ... and phase-corrected by the caller's model, (y − leak) / in-phase share, over the
         # first 100 flows (25 cycles of a 4-base order, where a 454 read is still in phase)
         "corrected_flow_value_by_length": read_stats.flow_value_by_length(
-            np.array([r.corrected if r.corrected is not None else v
-                      for r, v in zip(reads, values, strict=True)]), truths[0],
-            n_flows=CORRECTED_STATS_FLOWS),
+            corrected, truths[0], n_flows=CORRECTED_STATS_FLOWS),
         "phasing_estimated": {
             k: _stats([x[k] for x in sites]) for k in
             ("incomplete_extension", "carry_forward", "droop_per_flow")},
@@ -182,6 +230,8 @@ def read_figures(s: Scenario, values: np.ndarray, reads: list[Read], true_n: np.
         "read_quality": q.astype(np.uint8),
         "read_quality_offsets": offsets,
         "read_true_n": np.asarray(true_n, dtype=np.int64),
+        # the caller's phase-corrected values (the input values where it corrects nothing)
+        "read_corrected": corrected,
     }
     return summary, arrays
 

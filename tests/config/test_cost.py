@@ -48,7 +48,8 @@ def test_the_terms_count_what_the_run_does():
     # twice the frames, about twice the time
     longer = scene("pyro_1fmol", "run.duration_s=1000.0")
     fixed_part = cost.RUN_S + sum(t.seconds for t in cost.wall_estimate(s)  # per run, not frame
-                                  if "footprint" in t.what or "detection" in t.what)
+                                  if "footprint" in t.what or "detection" in t.what
+                                  or "caller" in t.what)
     assert cost.wall_seconds(longer) - fixed_part == pytest.approx(
         2 * (cost.wall_seconds(s) - fixed_part))
 

@@ -11,6 +11,7 @@ from chiptwin.kinetics.chemistry import N_BINS
 from chiptwin.kinetics.chemistry_fit import histograms, model_distributions, total_variation
 from chiptwin.kinetics.chemistry_presets import PRESETS
 from chiptwin.report.flow_profile import (
+    LENGTHS,
     PROFILE_LENGTHS,
     between_454,
     measured_values,
@@ -123,3 +124,23 @@ def test_flx_sff_run_is_closer_to_the_flx_preset():
     assert c.tv["454_flx"] == pytest.approx(0.139, abs=0.01)
     assert c.tv["454_titanium"] == pytest.approx(0.188, abs=0.01)
     assert c.tv["454_flx"] < c.tv["454_titanium"]
+
+
+def test_twin_check_reads_the_runs_corrected_values_and_states_the_floor():
+    """The check histograms the run's ``read_corrected`` (no read called again), and each
+    length's sampling floor is what as many draws of the scene's own model show: positive, and
+    larger for the 40 flows of a length than for the hundreds of another."""
+    from chiptwin.report.flow_profile_out import TWIN_FLOWS, markdown, summary, twin_check
+
+    flx = model_distributions(PRESETS["454_flx"], list(LENGTHS))
+    sets = ("sites.at_pixels=[[4, 8], [2, 3]]", "assay.n_flows=60", "run.duration_s=3620")
+    check = twin_check(flx, overrides=sets)
+    assert check.reads == 2 and TWIN_FLOWS >= 60
+    flows = {row["length"]: row["flows"] for row in check.rows}
+    floors = {row["length"]: row["tv_floor"] for row in check.rows}
+    assert sum(flows.values()) == 2 * 60  # every flow: the template's runs are ≤ 5
+    assert all(check.values[n].sum() == flows[n] for n in flows)
+    few, many = min(flows, key=flows.get), max(flows, key=flows.get)
+    assert 0 < floors[many] < floors[few] <= 1
+    text = markdown(summary([], [], [check]))
+    assert "TV floor" in text and f"{floors[many]:.4g}" in text
