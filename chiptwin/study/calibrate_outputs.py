@@ -12,18 +12,16 @@ from __future__ import annotations
 import csv
 import io
 import json
-import math
-import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from chiptwin.study.files import write_atomic
+from chiptwin.study.toml_text import toml_key, toml_value
 from chiptwin.twin.figures import save_figure
 
 CALIBRATED = "calibrated.toml"
-_BARE = re.compile(r"^[A-Za-z0-9_-]+$")
 
 
 def write_calibrate_outputs(result: Any, out: Path) -> None:
@@ -75,28 +73,6 @@ def answer_lines(summary: dict[str, Any]) -> list[str]:
 # ---------------------------------------------------------------- calibrated.toml
 
 
-def toml_value(v: Any) -> str:
-    """A TOML value: booleans, numbers, strings, arrays and inline tables."""
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        return repr(v) if math.isfinite(v) else ("nan" if math.isnan(v) else
-                                                 ("inf" if v > 0 else "-inf"))
-    if isinstance(v, str):
-        return json.dumps(v, ensure_ascii=False)
-    if isinstance(v, list):
-        return "[" + ", ".join(toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{ " + ", ".join(f"{_key(k)} = {toml_value(x)}" for k, x in v.items()) + " }"
-    raise TypeError(f"no TOML form for {v!r}")
-
-
-def _key(k: str) -> str:
-    return k if _BARE.match(k) else json.dumps(k)
-
-
 def _tables(raw: dict[str, Any], prefix: str = ""):
     """(section, its non-table keys), parents before their sub-tables."""
     scalars = {k: v for k, v in raw.items() if not isinstance(v, dict)}
@@ -104,7 +80,7 @@ def _tables(raw: dict[str, Any], prefix: str = ""):
         yield prefix, scalars
     for k, v in raw.items():
         if isinstance(v, dict):
-            yield from _tables(v, f"{prefix}.{_key(k)}" if prefix else _key(k))
+            yield from _tables(v, f"{prefix}.{toml_key(k)}" if prefix else toml_key(k))
 
 
 def calibrated_toml(study: Any, summary: dict[str, Any]) -> str:
@@ -134,7 +110,7 @@ def calibrated_toml(study: Any, summary: dict[str, Any]) -> str:
         for leaf, value in table.items():
             key = f"{section}.{leaf}".replace('"', "")
             note = f"  # {comments[key]}" if key in comments else ""
-            lines.append(f"{_key(leaf)} = {toml_value(value)}{note}")
+            lines.append(f"{toml_key(leaf)} = {toml_value(value)}{note}")
         lines.append("")
     return "\n".join(lines)
 

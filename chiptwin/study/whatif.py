@@ -38,6 +38,7 @@ from chiptwin.study.readers import (
     scenario_path_of,
 )
 from chiptwin.study.spec import MAX_AXIS_VALUES, MAX_REPLICATES, Study, study_from_dict
+from chiptwin.study.toml_text import toml_key, toml_value
 
 #: ``--quick``: replicates per point at most (a mean's Student-t interval at 10 runs is ≈ 3×
 #: as wide as at 90; a rate's bound at 0 errors is 9× as high, so a requirement sized for the
@@ -259,7 +260,7 @@ def _put_values(table: dict, values: list) -> None:
 
 
 def _text(value: Any) -> str:
-    return value if isinstance(value, str) else _toml(value)
+    return value if isinstance(value, str) else toml_value(value)
 
 
 def _quoted(word: str) -> str:
@@ -309,32 +310,10 @@ def _table(out: list[str], name: str, table: dict) -> None:
     arrays = {k: v for k, v in table.items()
               if isinstance(v, list) and v and all(isinstance(x, dict) for x in v)}
     out.append(f"[{name}]")
-    out += [f"{_key(k)} = {_toml(v)}" for k, v in table.items() if k not in arrays]
+    out += [f"{toml_key(k)} = {toml_value(v)}" for k, v in table.items() if k not in arrays]
     out.append("")
     for k, items in arrays.items():
         for item in items:
-            out.append(f"[[{name}.{_key(k)}]]")
-            out += [f"{_key(ik)} = {_toml(iv)}" for ik, iv in item.items()]
+            out.append(f"[[{name}.{toml_key(k)}]]")
+            out += [f"{toml_key(ik)} = {toml_value(iv)}" for ik, iv in item.items()]
             out.append("")
-
-
-def _key(k: str) -> str:
-    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else json.dumps(k, ensure_ascii=False)
-
-
-def _toml(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        return repr(v) if math.isfinite(v) else ("nan" if math.isnan(v) else
-                                                 ("inf" if v > 0 else "-inf"))
-    if isinstance(v, str):
-        return json.dumps(v, ensure_ascii=False)
-    if isinstance(v, list):
-        return "[" + ", ".join(_toml(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{ " + ", ".join(f"{_key(k)} = {_toml(x)}" for k, x in v.items()) + " }" \
-            if v else "{}"
-    raise TypeError(f"no TOML for {v!r}")
