@@ -12,7 +12,16 @@ model_advance` records how far each flow reads) keeps its prediction, its prior 
 of the likelihood; so a candidate is scored from the last checkpoint before the first flow that
 reads D, with the prefix's likelihood summed as before (the same bits). A candidate of the hill
 climb is dropped as soon as its likelihood so far, plus the least the remaining flows can add
-(:func:`least_term`), is already worse than the current calls'.
+(:func:`least_term`), is already worse than the current calls'; or as soon as the flows left
+can no longer make up the difference to the current calls' terms there: a run resized moves
+them only by the light of the strands still at or before it (:func:`chiptwin.detection._bounds.
+leak_left`), any change, once both flow programs are past it, by the strands the two models
+place apart (:func:`chiptwin.detection._bounds.apart`), each flow's term by at most a slope
+bound times its light moved. Every bound decides only what the exact sum would: a candidate
+that might win is scored to the end, so the calls and likelihoods are the naive kernels' to the
+bit. The candidates' templates are rewritten only from the changed run on, each flow's log
+prior is looked up (:func:`prior_table`), and the sweep finds a flow's likeliest length with
+one logarithm when one length clearly wins (:func:`likeliest`).
 """
 
 from __future__ import annotations
@@ -22,13 +31,23 @@ import math
 import numpy as np
 
 from chiptwin._numba import NJIT
+from chiptwin.detection._bounds import (
+    LEAK_SPAN,
+    SPANS,
+    apart,
+    leak_left,
+    slopes_from,
+    suffix_bounds,
+)
 from chiptwin.kinetics._phasing_kernels import (
     CHECK_EVERY,
+    TINY,
     first_reaching,
     model_advance,
     model_buffers,
     model_restore,
     phase_flows,
+    run_rows_from,
     run_table,
     run_table_into,
 )
@@ -140,22 +159,40 @@ def _score(y: np.ndarray, flows: np.ndarray, calls: np.ndarray, eps: float, lam:
 
 
 @NJIT
-def prior_from(calls: np.ndarray, flows: np.ndarray, comp: np.ndarray, k0: int, k1: int,
+def prior_table(comp: np.ndarray) -> tuple:  # pragma: no cover - compiled
+    """:func:`context_prior`'s P(h > 0) for every flow base ``x`` and set of allowed bases
+    ``mask`` (bit b: base b may come next), with the logs of it and of its complement:
+    ``(p, log(1 − p), log p)``, each (n_bases, 2**n_bases). The same arithmetic as
+    :func:`context_prior`, so the same bits; a flow's prior depends on nothing else, so the
+    kernels look it up instead of computing two logarithms per flow and candidate."""
+    nb = comp.size
+    p = np.empty((nb, 1 << nb))
+    l0, l1 = np.empty_like(p), np.empty_like(p)
+    for x in range(nb):
+        for mask in range(1 << nb):
+            total = 0.0
+            for b in range(nb):
+                if (mask >> b) & 1:
+                    total += comp[b]
+            q = comp[x] / total if (mask >> x) & 1 and total > 0.0 else 0.0
+            p[x, mask] = min(max(q, P_POS_MIN), 1.0 - P_POS_MIN)
+            l0[x, mask], l1[x, mask] = math.log(1.0 - p[x, mask]), math.log(p[x, mask])
+    return p, l0, l1
+
+
+@NJIT
+def prior_from(calls: np.ndarray, flows: np.ndarray, p_tab: np.ndarray, k0: int, k1: int,
                mask: int, allow: np.ndarray, p_pos: np.ndarray) -> int:  # pragma: no cover
-    """:func:`context_prior` for flows ``k0 … k1 − 1`` from the allowed bases ``mask`` (bit b:
-    base b may come next) before flow ``k0``; ``allow[k]`` keeps the mask before each flow.
-    Returns the mask after flow ``k1 − 1``."""
+    """:func:`context_prior` for flows ``k0 … k1 − 1`` from the allowed bases ``mask`` before
+    flow ``k0``, read from :func:`prior_table`'s ``p``; ``allow[k]`` keeps the mask before each
+    flow. Returns the mask after flow ``k1 − 1``."""
+    full = (1 << p_tab.shape[0]) - 1
     for k in range(k0, k1):
         allow[k] = mask
         x = flows[k]
-        total = 0.0
-        for b in range(comp.size):
-            if (mask >> b) & 1:
-                total += comp[b]
-        q = comp[x] / total if (mask >> x) & 1 and total > 0.0 else 0.0
-        p_pos[k] = min(max(q, P_POS_MIN), 1.0 - P_POS_MIN)
+        p_pos[k] = p_tab[x, mask]
         if calls[k] > 0:
-            mask = (1 << comp.size) - 1
+            mask = full
         mask &= ~(1 << x)
     return mask
 
@@ -173,6 +210,26 @@ def terms_from(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, floor: floa
         d = y[k] - signal[k]
         h = min(calls[k], top)
         lp = math.log(1.0 - p_pos[k]) if h == 0 else math.log(p_pos[k]) + log_len[h]
+        total += 0.5 * d * d / var + 0.5 * math.log(var) - lp
+        cum[k + 1] = total
+    return total
+
+
+@NJIT
+def terms_tab(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, flows: np.ndarray,
+              allow: np.ndarray, l0: np.ndarray, l1: np.ndarray, floor: float, shot: float,
+              ref: float, log_len: np.ndarray, k0: int, k1: int, total: float,
+              cum: np.ndarray) -> float:  # pragma: no cover - compiled
+    """:func:`terms_from` with each flow's log prior read from :func:`prior_table` at the flow's
+    base and allowed set (``allow``, as :func:`prior_from` keeps it): the same terms in the same
+    order, so the same bits."""
+    top = log_len.size - 1
+    for k in range(k0, k1):
+        mp = max(signal[k], 0.0)
+        var = floor + shot * mp + ref * mp * mp
+        d = y[k] - signal[k]
+        h = min(calls[k], top)
+        lp = l0[flows[k], allow[k]] if h == 0 else l1[flows[k], allow[k]] + log_len[h]
         total += 0.5 * d * d / var + 0.5 * math.log(var) - lp
         cum[k + 1] = total
     return total
@@ -221,6 +278,38 @@ def call_of(yk: float, ak: float, bk: float, floor: float, shot: float, ref: flo
 
 
 @NJIT
+def likeliest(yk: float, ak: float, bk: float, floor: float, shot: float, ref: float,
+              p: float, l0: float, l1: float, log_len: np.ndarray, guess: int,
+              row: np.ndarray) -> int:  # pragma: no cover - compiled
+    """:func:`call_of`, the same answer, without its logarithm per length when one length
+    clearly wins: the log-posterior of ``guess`` is computed as there (the same bits), every
+    other length's bounded above by its residual term plus ``−log(floor)/2`` (its variance is
+    at least ``floor``); when ``guess`` leads every bound by more than :func:`call_of`'s tie
+    margin, :func:`call_of` would return it. Else :func:`call_of` decides."""
+    if not floor > 0.0:
+        return call_of(yk, ak, bk, floor, shot, ref, p, log_len, row)
+    cap = -0.5 * math.log(floor)
+    mean = ak * guess + bk
+    mp = max(mean, 0.0)
+    var = (floor + shot * mp + ref * mp * mp) * 1.0
+    d = yk - mean
+    lg = -0.5 * d * d / var - 0.5 * math.log(var) + (l0 if guess == 0 else l1 + log_len[guess])
+    second = -np.inf
+    for h in range(log_len.size):
+        if h == guess:
+            continue
+        mean = ak * h + bk
+        mp = max(mean, 0.0)
+        var = (floor + shot * mp + ref * mp * mp) * 1.0
+        d = yk - mean
+        ub = -0.5 * d * d / var + cap + (l0 if h == 0 else l1 + log_len[h])
+        second = max(second, ub)
+    if lg - second > 1e-12 * max(1.0, abs(lg)):
+        return guess
+    return call_of(yk, ak, bk, floor, shot, ref, p, log_len, row)
+
+
+@NJIT
 def dephase_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droop: float,
                    start: np.ndarray, comp: np.ndarray, log_len: np.ndarray, floor: float,
                    shot: float, ref: float, n_score: int, n_iter: int, window: int
@@ -242,6 +331,8 @@ def dephase_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, dro
     cum = np.zeros(n + 1)
     row = np.zeros(log_len.size)
     full = (1 << comp.size) - 1
+    p_tab, l0, l1 = prior_table(comp)
+    top = log_len.size - 1
     k_model, k_prior = 0, 0
     for _ in range(n_iter + 1):
         tmpl = template_of(calls, flows)
@@ -253,28 +344,31 @@ def dephase_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, dro
         k = model_restore(k_model, state, scale, buf, ck_dist, ck_int, ck_scale)
         model_advance(run_table(tmpl), flows, eps, lam, droop, k, n, state, scale, buf,
                       ck_dist, ck_int, ck_scale, signal, a, ideal, reach)
-        prior_from(calls, flows, comp, k_prior, n, allow[k_prior] if k_prior > 0 else full,
+        prior_from(calls, flows, p_tab, k_prior, n, allow[k_prior] if k_prior > 0 else full,
                    allow, p_pos)
         kt = min(k, k_prior)
         if kt < n_score:
-            terms_from(y, signal, calls, floor, shot, ref, p_pos, log_len, kt, n_score,
-                       cum[kt], cum)
+            terms_tab(y, signal, calls, flows, allow, l0, l1, floor, shot, ref, log_len, kt,
+                      n_score, cum[kt], cum)
         nll = cum[n_score]
         if nll < best_nll:
             best_nll = nll
             best_calls[:] = calls
         first = -1
         for j in range(kt, n):
-            if call_of(y[j], a[j], signal[j] - a[j] * calls[j], floor, shot, ref, p_pos[j],
-                       log_len, row) != calls[j]:
+            x, m = flows[j], allow[j]
+            if likeliest(y[j], a[j], signal[j] - a[j] * calls[j], floor, shot, ref, p_pos[j],
+                         l0[x, m], l1[x, m], log_len, min(calls[j], top), row) != calls[j]:
                 first = j
                 break
         if first < 0:
             break
         new = np.empty(min(first + window, n) - first, dtype=np.int64)
         for j in range(first, first + new.size):
-            new[j - first] = call_of(y[j], a[j], signal[j] - a[j] * calls[j], floor, shot, ref,
-                                     p_pos[j], log_len, row)
+            x, m = flows[j], allow[j]
+            new[j - first] = likeliest(y[j], a[j], signal[j] - a[j] * calls[j], floor, shot,
+                                       ref, p_pos[j], l0[x, m], l1[x, m], log_len,
+                                       min(calls[j], top), row)
         k_model = first_reaching(reach, calls[:first].sum())
         k_prior = first
         calls[first:first + new.size] = new
@@ -307,17 +401,31 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
     allow, t_allow = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
     p_pos, t_pos = np.zeros(n), np.zeros(n)
     cum, t_cum = np.zeros(n + 1), np.zeros(n + 1)
-    prior_from(calls, flows, comp, 0, n, full, allow, p_pos)
-    nll = terms_from(y, signal, calls, floor, shot, ref, p_pos, log_len, 0, n, 0.0, cum)
+    p_tab, l0, l1 = prior_table(comp)
+    prior_from(calls, flows, p_tab, 0, n, full, allow, p_pos)
+    nll = terms_tab(y, signal, calls, flows, allow, l0, l1, floor, shot, ref, log_len, 0, n,
+                    0.0, cum)
     lb = least_term(floor)
-    t_tmpl = np.empty(width, dtype=np.int64)
-    t_run = np.empty((width + 1, 4), dtype=np.int64)
+    # the candidates' template and run table, kept equal to the current calls' below ``dirty``
+    # so that a candidate rewrites only what it changes (:func:`run_rows_from`)
+    b_tmpl, t_tmpl = np.zeros(width, dtype=np.int64), np.zeros(width, dtype=np.int64)
+    n_b = template_into(calls, flows, b_tmpl)
+    t_tmpl[:n_b] = b_tmpl[:n_b]
+    t_run = np.zeros((width + 1, 4), dtype=np.int64)
+    run_table_into(t_tmpl, n_b, t_run)
+    dirty = n_b + 1
+    cs = np.zeros(n + 1, dtype=np.int64)  # cs[k]: template position of flow k's run
+    cs[1:] = np.cumsum(calls)
     z = np.empty(n)
+    lip, sums, g = np.empty(n + 1), np.empty((SPANS.size, n + 1)), np.empty((SPANS.size, n))
+    slopes_from(y, signal, floor, shot, ref, 0, g)
     for _ in range(rounds):
         for k in range(n):
             mp = max(signal[k], 0.0)
             z[k] = abs(y[k] - signal[k]) / math.sqrt(floor + shot * mp + ref * mp * mp)
         order = _largest_first(z, z_min)
+        suffix_bounds(g, sums, lip)
+        c_max = calls.max()  # the current template's longest run
         kept = -1
         for i in range(min(n_try, order.size)):
             k = order[i]
@@ -327,18 +435,26 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
                 h = calls[k] + d
                 if h < 0 or h > top:
                     continue
-                calls[k] = h
-                n_pos = template_into(calls, flows, t_tmpl)
-                calls[k] = h - d
-                k0 = first_reaching(reach, calls[:k].sum() + min(calls[k], h))
-                run_table_into(t_tmpl, n_pos, t_run)
-                kc = _score_from(y, flows, eps, lam, droop, t_run, comp, log_len, floor, shot,
-                                 ref, k0, nll, lb, base, trial, allow, t_allow, t_pos, cum,
-                                 t_cum, top)
+                n_pos = _candidate_template(b_tmpl, n_b, cs[k], calls[k], h, flows[k],
+                                            dirty, t_tmpl)
+                dirty = min(dirty, run_rows_from(t_tmpl, n_pos, t_run, min(dirty, cs[k])))
+                k0 = first_reaching(reach, cs[k] + min(calls[k], h))
+                # the most bases a strand adds in a flow, on either template: a run and the
+                # next (carried); a run emptied can merge its neighbours, one made its left one
+                step = 2 * (c_max + h if h > 0 else 2 * c_max)
+                kc = _score_from(y, flows, eps, lam, droop, t_run, p_tab, l0, l1, log_len,
+                                 floor, shot, ref, k0, nll, lb, base, trial, allow, t_allow,
+                                 t_pos, cum, t_cum, top, k, cs[k], calls[k], h, step, lip,
+                                 sums)
                 if kc >= 0:
                     _keep(base, trial, kc, n, allow, t_allow, p_pos, t_pos, cum, t_cum)
                     nll = cum[n]
                     kept = k
+                    n_b = n_pos
+                    b_tmpl[:n_b] = t_tmpl[:n_b]
+                    dirty = n_b + 1
+                    cs[1:] = np.cumsum(calls)
+                    slopes_from(y, signal, floor, shot, ref, kc, g)
                     break
             if kept >= 0:
                 break
@@ -348,13 +464,18 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
 
 
 @NJIT
-def _score_from(y, flows, eps, lam, droop, run, comp, log_len, floor, shot, ref, k0, nll, lb,
-                base, trial, allow, t_allow, t_pos, cum, t_cum, top):  # pragma: no cover
+def _score_from(y, flows, eps, lam, droop, run, p_tab, l0, l1, log_len, floor, shot, ref, k0,
+                nll, lb, base, trial, allow, t_allow, t_pos, cum, t_cum, top, k_run, d0, h_old,
+                h, step, lip, sums):  # pragma: no cover
     """Score a candidate template (its ``run`` table) into ``trial`` from the checkpoint before
-    flow ``k0``, a
-    checkpoint's worth of flows at a time; returns that checkpoint's flow when the candidate
-    beats ``nll`` by more than 1e-9 (and calls no run beyond ``top``), else −1, as soon as the
-    sum so far plus ``lb`` per flow left cannot."""
+    flow ``k0``, a checkpoint's worth of flows at a time; returns that checkpoint's flow when
+    the candidate beats ``nll`` by more than 1e-9 (and calls no run beyond ``top``), else −1,
+    as soon as it cannot: the sum so far plus ``lb`` per flow left is already worse, or the sum
+    so far plus the current calls' terms left, less the most the flows left can differ (the
+    run of flow ``k_run`` at template position ``d0`` made ``h`` long from ``h_old``; ``step``
+    the most bases a strand adds in a flow): by the strands still at or before a run resized
+    (:func:`leak_left`, with ``lip``), or, once the flow programs agree again, by the strands
+    the two models place apart (:func:`apart`, with ``sums``)."""
     n = y.size
     state, scale, buf, ck_dist, ck_int, ck_scale, _, _, _, reach = base
     t_state, t_scale, t_buf, t_ck_dist, t_ck_int, t_ck_scale, t_signal, t_a, t_calls, \
@@ -362,7 +483,7 @@ def _score_from(y, flows, eps, lam, droop, run, comp, log_len, floor, shot, ref,
     kc = model_restore(k0, t_state, t_scale, t_buf, ck_dist, ck_int, ck_scale)
     if kc > 0:
         t_reach[kc - 1] = reach[kc - 1]
-    mask = allow[kc] if kc > 0 else (1 << comp.size) - 1
+    mask = allow[kc] if kc > 0 else (1 << p_tab.shape[0]) - 1
     total = cum[kc]
     t_cum[kc] = total
     k = kc
@@ -373,15 +494,52 @@ def _score_from(y, flows, eps, lam, droop, run, comp, log_len, floor, shot, ref,
         for j in range(k, ke):
             if t_calls[j] > top:
                 return -1
-        mask = prior_from(t_calls, flows, comp, k, ke, mask, t_allow, t_pos)
-        total = terms_from(y, t_signal, t_calls, floor, shot, ref, t_pos, log_len, k, ke, total,
-                           t_cum)
+        mask = prior_from(t_calls, flows, p_tab, k, ke, mask, t_allow, t_pos)
+        total = terms_tab(y, t_signal, t_calls, flows, t_allow, l0, l1, floor, shot, ref,
+                          log_len, k, ke, total, t_cum)
         left = (n - ke) * lb if ke < n else 0.0
         slack = 1e-6 * (abs(total) + abs(nll) + abs(left) + 1.0)  # far above rounding error
         if total + left - slack >= nll - 1e-9:
             return -1
+        if ke > k_run and ke < n:
+            rest = nll - cum[ke]  # the current calls' terms of the flows left
+            slack = 1e-6 * (abs(total) + abs(nll) + abs(rest) + 1.0)
+            if h_old > 0 and h > 0:  # a run resized: the rest moves by ≤ lip·(strands before it)
+                m = leak_left(t_state, t_scale, t_buf, d0)
+                if m <= LEAK_SPAN and total + rest - lip[ke] * m - slack >= nll - 1e-9:
+                    return -1
+            c = ke // CHECK_EVERY
+            if (mask == allow[ke] and ck_int[c, 2] >= d0 + h_old
+                    and t_state[2] == ck_int[c, 2] + h - h_old):
+                # both flow programs past the change and in step: the same calls and priors
+                # from here, each flow's light apart by at most e
+                e = step * (apart(ck_dist[c], ck_int[c, 0], ck_int[c, 1], t_buf[t_state[4]],
+                                  t_state[0], t_state[1], d0 + h_old, d0 + h)
+                            + 2.0 * TINY * run.shape[0] * (n - ke))  # strands dropped
+                for i in range(SPANS.size):
+                    if e <= SPANS[i]:
+                        if total + rest - e * sums[i, ke] - slack >= nll - 1e-9:
+                            return -1
+                        break
         k = ke
     return kc if total < nll - 1e-9 else -1
+
+
+@NJIT
+def _candidate_template(b_tmpl: np.ndarray, n_b: int, d0: int, h_old: int, h: int, base: int,
+                        dirty: int, out: np.ndarray) -> int:  # pragma: no cover - compiled
+    """The template of the current calls (``b_tmpl[:n_b]``) with the run of ``h_old`` bases
+    ``base`` at position ``d0`` made ``h`` long, written into ``out`` from position
+    ``min(dirty, d0)`` on (below it ``out`` already holds the current template); returns its
+    length."""
+    for p in range(min(dirty, d0), d0):
+        out[p] = b_tmpl[p]
+    for p in range(d0, d0 + h):
+        out[p] = base
+    shift = h - h_old
+    for p in range(d0 + h, n_b + shift):
+        out[p] = b_tmpl[p - shift]
+    return n_b + shift
 
 
 @NJIT
@@ -409,3 +567,4 @@ def _largest_first(z: np.ndarray, z_min: float) -> np.ndarray:  # pragma: no cov
         if sub[i] == sub[i - 1]:
             return np.argsort(-z)[:idx.size]
     return idx[np.argsort(-z[idx])]
+

@@ -34,6 +34,22 @@ def run_table_into(tmpl: np.ndarray, n_pos: int, run: np.ndarray) -> np.ndarray:
 
 
 @NJIT
+def run_rows_from(tmpl: np.ndarray, n_pos: int, run: np.ndarray,
+                  lo: int) -> int:  # pragma: no cover - compiled
+    """Rows ``lo … n_pos`` of :func:`run_table_into` written again, and the rows below ``lo``
+    of the homopolymer ``tmpl[lo − 1]`` continues into (a row reads the one above it only
+    within a run): when only ``tmpl[lo:n_pos]`` changed, ``run`` is then the new template's
+    table, the rows below untouched. Returns the lowest row written."""
+    run[n_pos, :] = 0
+    j = n_pos - 1
+    while j >= 0 and (j >= lo or tmpl[j] == tmpl[j + 1]):
+        run[j, :] = 0
+        run[j, tmpl[j]] = run[j + 1, tmpl[j]] + 1
+        j -= 1
+    return j + 1
+
+
+@NJIT
 def flow_step(run: np.ndarray, x: int, prev: int, eps: float, lam: float, dist: np.ndarray,
               new: np.ndarray, lo: int, hi: int) -> tuple:  # pragma: no cover - compiled
     """One flow of :func:`phase_flows`: the strands of ``dist[lo..hi]`` held, extended or
