@@ -146,6 +146,18 @@ def resolve_path(value: Any, source: str) -> Path:
                         + ", ".join(str(c) for c in candidates) + ")")
 
 
+def probe_table(raw: dict[str, Any]) -> dict[str, Any]:
+    """A copy of a scene's table to read a datasheet's values against. The scene without the
+    datasheet gives only the converter and timing; its node and full well are the datasheet's to
+    set (the capacitance from K, the full well from μ_e.sat), so the converter's range is checked
+    on the scene the values make, not on the node its diode alone would give."""
+    probe = copy.deepcopy(raw)
+    chip = probe.setdefault("chip", {})
+    if isinstance(chip, dict):
+        chip.setdefault("adc", {})["range_below_full_well_ok"] = True
+    return probe
+
+
 def apply_datasheet(raw: dict[str, Any], source: str,
                     build: Callable[[dict[str, Any]], Scenario]) -> dict[str, Any]:
     """The raw scenario table with ``chip.pixel.from_datasheet`` replaced by the values the
@@ -153,7 +165,7 @@ def apply_datasheet(raw: dict[str, Any], source: str,
     raw = copy.deepcopy(raw)
     pixel_raw = raw["chip"]["pixel"]
     doc = read_datasheet(resolve_path(pixel_raw.pop("from_datasheet"), source))
-    base = build(raw)
+    base = build(probe_table(raw))
     values = datasheet_values(doc, base)
     for key, (value, origin) in values.items():
         section, leaf = key.rsplit(".", 1)

@@ -20,7 +20,12 @@ from typing import Any
 from chiptwin.config.catalog import resolve_scenario
 from chiptwin.config.chemistry import with_chemistry
 from chiptwin.config.consistency import check_consistency
-from chiptwin.config.datasheet import apply_datasheet, datasheet_values, read_datasheet
+from chiptwin.config.datasheet import (
+    apply_datasheet,
+    datasheet_values,
+    probe_table,
+    read_datasheet,
+)
 from chiptwin.config.fields import ScenarioError, check_value
 from chiptwin.config.schema import ASSAY_COMMON_KEYS, ASSAY_KIND_KEYS, Scenario
 
@@ -246,7 +251,7 @@ def load_with_datasheet(path: str | Path, datasheet: str | Path, overrides: Iter
     if isinstance(pixel_raw, dict):
         pixel_raw.pop("from_datasheet", None)
     with named_overrides(source, overrides):
-        targets = datasheet_values(doc, scenario_from_dict(base_raw, source))
+        targets = datasheet_values(doc, scenario_from_dict(probe_table(base_raw), source))
     for key in targets:
         section = raw.get("chip", {}).get(key.split(".")[1])
         if isinstance(section, dict):
