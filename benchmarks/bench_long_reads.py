@@ -5,9 +5,11 @@ cascade's on a long template.
     python benchmarks/bench_long_reads.py [--flows 400] [--cascade-flows 120] [--quick]
 
 Prints the warm wall time of ``pyro_long_read`` by stage and per flow; the caller alone on that
-run's flow values, one thread, timed with the incremental (checkpointed and bounded) kernels and
-with the naive ones (``tests/detection/naive_caller.py``: the whole flowgram predicted for every
-candidate), in turns, best of three each, with the ratio and whether the calls are the same;
+run's flow values, one thread, timed with its kernels as they are and as first written
+(``tests/detection/naive_caller.py``: the whole flowgram predicted for every sweep step and
+hill-climb candidate on the phasing model's first flow step, every phasing neighbour's posterior
+computed, the read always called again without phasing), in turns, best of three each, with the
+ratio and whether the calls are the same;
 and the flow-by-flow light of the closed-form phased model against the multi-enzyme cascade
 (Agah et al., Nucleic Acids Res. 32:e166, 2004) on the scene's template for one site, as the
 relative difference of each flow's photons (the cascade with the same incomplete extension and

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from chiptwin._numba import NJIT
+from chiptwin._numba import NJIT, NJIT_NORC
 
 #: The spans of light (bases per starting strand) :func:`slopes_from` bounds the slopes over;
 #: a candidate's light moved by more than the last is not bounded (scored on).
@@ -50,22 +50,28 @@ def slopes_from(y: np.ndarray, signal: np.ndarray, floor: float, shot: float, re
 
 
 @NJIT
-def suffix_bounds(g: np.ndarray, sums: np.ndarray, lip: np.ndarray) -> None:  # pragma: no cover
-    """From the slopes ``g`` (:func:`slopes_from`): ``sums[i, k] = Σ_{j ≥ k} g[i, j]`` (light
-    moved by at most ``e ≤ SPANS[i]`` in every flow moves the terms of flows ``k`` on by at most
-    ``e·sums[i, k]``) and ``lip[k] = max_{j ≥ k} g[0, j]`` (light moved by ``Δ_j`` with
-    ``Σ|Δ_j| ≤`` :data:`LEAK_SPAN` moves them by at most ``lip[k]·Σ|Δ_j|``)."""
+def prefix_bounds(g: np.ndarray, pre: np.ndarray, lip: np.ndarray,
+                  k0: int) -> None:  # pragma: no cover - compiled
+    """From the slopes ``g`` (:func:`slopes_from`): ``pre[i, k] = Σ_{j < k} g[i, j]``, so that
+    light moved by at most ``e ≤ SPANS[i]`` in every flow moves the terms of flows ``k`` on by at
+    most ``e·(pre[i, n] − pre[i, k])``, rewritten from ``k0`` on (the sums below it keep theirs,
+    as :func:`slopes_from` keeps their slopes); and ``lip[k] = max_{j ≥ k} g[0, j]`` (light
+    moved by ``Δ_j`` with ``Σ|Δ_j| ≤`` :data:`LEAK_SPAN` moves them by at most
+    ``lip[k]·Σ|Δ_j|``)."""
     n = g.shape[1]
+    for i in range(g.shape[0]):
+        acc = pre[i, k0]
+        for k in range(k0, n):
+            acc += g[i, k]
+            pre[i, k + 1] = acc
     lip[n] = 0.0
-    for i in range(SPANS.size):
-        sums[i, n] = 0.0
-        for k in range(n - 1, -1, -1):
-            sums[i, k] = sums[i, k + 1] + g[i, k]
+    top = 0.0
     for k in range(n - 1, -1, -1):
-        lip[k] = max(g[0, k], lip[k + 1])
+        top = max(g[0, k], top)
+        lip[k] = top
 
 
-@NJIT
+@NJIT_NORC
 def leak_left(state: np.ndarray, scale: np.ndarray, buf: np.ndarray,
               d0: int) -> float:  # pragma: no cover - compiled
     """Share of the strands (times the droop scale) at template positions ``≤ d0`` in a model's
@@ -84,7 +90,7 @@ def leak_left(state: np.ndarray, scale: np.ndarray, buf: np.ndarray,
     return m * scale[0]
 
 
-@NJIT
+@NJIT_NORC
 def apart(cur: np.ndarray, lo_c: int, hi_c: int, new: np.ndarray, lo_n: int, hi_n: int,
           past_c: int, past_n: int) -> float:  # pragma: no cover - compiled
     """How much two strand populations can still differ, now and in every later flow: the

@@ -21,7 +21,10 @@ bound times its light moved. Every bound decides only what the exact sum would: 
 that might win is scored to the end, so the calls and likelihoods are the naive kernels' to the
 bit. The candidates' templates are rewritten only from the changed run on, each flow's log
 prior is looked up (:func:`prior_table`), and the sweep finds a flow's likeliest length with
-one logarithm when one length clearly wins (:func:`likeliest`).
+one logarithm when one length clearly wins (:func:`likeliest`). A round of the hill climb
+re-derives the residuals and slope sums only from the flow its last change reached and keeps
+the 24 largest residuals by insertion (:func:`_largest_first`); the scoring loop and the model
+steps it calls compile without reference counting (:data:`chiptwin._numba.NJIT_NORC`).
 """
 
 from __future__ import annotations
@@ -30,14 +33,14 @@ import math
 
 import numpy as np
 
-from chiptwin._numba import NJIT
+from chiptwin._numba import NJIT, NJIT_NORC
 from chiptwin.detection._bounds import (
     LEAK_SPAN,
     SPANS,
     apart,
     leak_left,
+    prefix_bounds,
     slopes_from,
-    suffix_bounds,
 )
 from chiptwin.kinetics._phasing_kernels import (
     CHECK_EVERY,
@@ -101,35 +104,6 @@ def context_prior(calls: np.ndarray, flows: np.ndarray, comp: np.ndarray,
 
 
 @NJIT
-def posterior_kernel(y: np.ndarray, a: np.ndarray, b: np.ndarray, floor: float, shot: float,
-                     ref: float, p_pos: np.ndarray, log_len: np.ndarray, inflate: np.ndarray
-                     ) -> np.ndarray:  # pragma: no cover - compiled
-    """P(h | y_k), h = 0 … len(log_len) − 1: Normal(a h + b, floor + shot m + ref m²) times the
-    prior ``1 − p_pos[k]`` (h = 0) or ``p_pos[k]·exp(log_len[h])`` (h ≥ 1)."""
-    n, m = y.size, log_len.size
-    post = np.empty((n, m))
-    for k in range(n):
-        top = -np.inf
-        l0, l1 = math.log(1.0 - p_pos[k]), math.log(p_pos[k])
-        for h in range(m):
-            mean = a[k] * h + b[k]
-            mp = max(mean, 0.0)
-            var = (floor + shot * mp + ref * mp * mp) * inflate[k]
-            d = y[k] - mean
-            lp = l0 if h == 0 else l1 + log_len[h]
-            ll = -0.5 * d * d / var - 0.5 * math.log(var) + lp
-            post[k, h] = ll
-            top = max(top, ll)
-        total = 0.0
-        for h in range(m):
-            post[k, h] = math.exp(post[k, h] - top)
-            total += post[k, h]
-        for h in range(m):
-            post[k, h] /= total
-    return post
-
-
-@NJIT
 def nll_kernel(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, floor: float, shot: float,
                ref: float, p_pos: np.ndarray, log_len: np.ndarray, n_score: int
                ) -> float:  # pragma: no cover - compiled
@@ -180,7 +154,7 @@ def prior_table(comp: np.ndarray) -> tuple:  # pragma: no cover - compiled
     return p, l0, l1
 
 
-@NJIT
+@NJIT_NORC
 def prior_from(calls: np.ndarray, flows: np.ndarray, p_tab: np.ndarray, k0: int, k1: int,
                mask: int, allow: np.ndarray, p_pos: np.ndarray) -> int:  # pragma: no cover
     """:func:`context_prior` for flows ``k0 … k1 − 1`` from the allowed bases ``mask`` before
@@ -215,7 +189,7 @@ def terms_from(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, floor: floa
     return total
 
 
-@NJIT
+@NJIT_NORC
 def terms_tab(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, flows: np.ndarray,
               allow: np.ndarray, l0: np.ndarray, l1: np.ndarray, floor: float, shot: float,
               ref: float, log_len: np.ndarray, k0: int, k1: int, total: float,
@@ -242,10 +216,11 @@ def least_term(floor: float) -> float:  # pragma: no cover - compiled
     return 0.5 * math.log(floor) + math.log(1.0 / (1.0 - P_POS_MIN)) if floor > 0 else -np.inf
 
 
-@NJIT
+@NJIT_NORC
 def call_of(yk: float, ak: float, bk: float, floor: float, shot: float, ref: float,
             p: float, log_len: np.ndarray, row: np.ndarray) -> int:  # pragma: no cover
-    """The likeliest length of one flow: ``argmax`` of :func:`posterior_kernel`'s row (the same
+    """The likeliest length of one flow: ``argmax`` of
+    :func:`chiptwin.detection._posterior_kernels.posterior_kernel`'s row (the same
     arithmetic; normalised as there, so ties break the same way, unless the best log-posterior
     leads the next by more than rounding could close); ``row`` is scratch."""
     m = log_len.size
@@ -277,7 +252,7 @@ def call_of(yk: float, ak: float, bk: float, floor: float, shot: float, ref: flo
     return best
 
 
-@NJIT
+@NJIT_NORC
 def likeliest(yk: float, ak: float, bk: float, floor: float, shot: float, ref: float,
               p: float, l0: float, l1: float, log_len: np.ndarray, guess: int,
               row: np.ndarray) -> int:  # pragma: no cover - compiled
@@ -334,15 +309,20 @@ def dephase_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, dro
     p_tab, l0, l1 = prior_table(comp)
     top = log_len.size - 1
     k_model, k_prior = 0, 0
+    tmpl, run = np.zeros(width, dtype=np.int64), np.zeros((width + 1, 4), dtype=np.int64)
+    d_new = 0  # the run table's rows from here on are written again
     for _ in range(n_iter + 1):
-        tmpl = template_of(calls, flows)
-        if tmpl.size + 2 > width:  # a longer template: new buffers, the model from flow 0
-            width = 2 * (tmpl.size + 2)
+        n_pos = int(calls.sum())
+        if n_pos + 2 > width:  # a longer template: new buffers, the model from flow 0
+            width = 2 * (n_pos + 2)
             (state, scale, buf, ck_dist, ck_int, ck_scale, signal, a, ideal,
              reach) = model_buffers(n, width)
-            k_model = 0
+            tmpl, run = np.zeros(width, dtype=np.int64), np.zeros((width + 1, 4), dtype=np.int64)
+            k_model, d_new = 0, 0
+        template_into(calls, flows, tmpl)
+        run_rows_from(tmpl, n_pos, run, d_new)
         k = model_restore(k_model, state, scale, buf, ck_dist, ck_int, ck_scale)
-        model_advance(run_table(tmpl), flows, eps, lam, droop, k, n, state, scale, buf,
+        model_advance(run, flows, eps, lam, droop, k, n, state, scale, buf,
                       ck_dist, ck_int, ck_scale, signal, a, ideal, reach)
         prior_from(calls, flows, p_tab, k_prior, n, allow[k_prior] if k_prior > 0 else full,
                    allow, p_pos)
@@ -369,7 +349,12 @@ def dephase_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, dro
             new[j - first] = likeliest(y[j], a[j], signal[j] - a[j] * calls[j], floor, shot,
                                        ref, p_pos[j], l0[x, m], l1[x, m], log_len,
                                        min(calls[j], top), row)
-        k_model = first_reaching(reach, calls[:first].sum())
+        d_new = calls[:first].sum()
+        k_model = first_reaching(reach, d_new)
+        # the sweep's calls may put one base in two flows' runs: the rows of a run that went on
+        # past d_new counted the bases now changed
+        while 0 < d_new < n_pos and tmpl[d_new] == tmpl[d_new - 1]:
+            d_new -= 1
         k_prior = first
         calls[first:first + new.size] = new
     return best_calls, best_nll
@@ -417,14 +402,15 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
     cs = np.zeros(n + 1, dtype=np.int64)  # cs[k]: template position of flow k's run
     cs[1:] = np.cumsum(calls)
     z = np.empty(n)
-    lip, sums, g = np.empty(n + 1), np.empty((SPANS.size, n + 1)), np.empty((SPANS.size, n))
+    lip, pre, g = np.empty(n + 1), np.zeros((SPANS.size, n + 1)), np.empty((SPANS.size, n))
     slopes_from(y, signal, floor, shot, ref, 0, g)
+    k_new = 0  # the flows from here on have new light since the last round
     for _ in range(rounds):
-        for k in range(n):
+        for k in range(k_new, n):
             mp = max(signal[k], 0.0)
             z[k] = abs(y[k] - signal[k]) / math.sqrt(floor + shot * mp + ref * mp * mp)
-        order = _largest_first(z, z_min)
-        suffix_bounds(g, sums, lip)
+        order = _largest_first(z, z_min, n_try)
+        prefix_bounds(g, pre, lip, k_new)
         c_max = calls.max()  # the current template's longest run
         kept = -1
         for i in range(min(n_try, order.size)):
@@ -445,7 +431,7 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
                 kc = _score_from(y, flows, eps, lam, droop, t_run, p_tab, l0, l1, log_len,
                                  floor, shot, ref, k0, nll, lb, base, trial, allow, t_allow,
                                  t_pos, cum, t_cum, top, k, cs[k], calls[k], h, step, lip,
-                                 sums)
+                                 pre)
                 if kc >= 0:
                     _keep(base, trial, kc, n, allow, t_allow, p_pos, t_pos, cum, t_cum)
                     nll = cum[n]
@@ -455,6 +441,7 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
                     dirty = n_b + 1
                     cs[1:] = np.cumsum(calls)
                     slopes_from(y, signal, floor, shot, ref, kc, g)
+                    k_new = kc
                     break
             if kept >= 0:
                 break
@@ -463,10 +450,10 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
     return calls.copy()
 
 
-@NJIT
+@NJIT_NORC
 def _score_from(y, flows, eps, lam, droop, run, p_tab, l0, l1, log_len, floor, shot, ref, k0,
                 nll, lb, base, trial, allow, t_allow, t_pos, cum, t_cum, top, k_run, d0, h_old,
-                h, step, lip, sums):  # pragma: no cover
+                h, step, lip, pre):  # pragma: no cover
     """Score a candidate template (its ``run`` table) into ``trial`` from the checkpoint before
     flow ``k0``, a checkpoint's worth of flows at a time; returns that checkpoint's flow when
     the candidate beats ``nll`` by more than 1e-9 (and calls no run beyond ``top``), else −1,
@@ -475,7 +462,7 @@ def _score_from(y, flows, eps, lam, droop, run, p_tab, l0, l1, log_len, floor, s
     run of flow ``k_run`` at template position ``d0`` made ``h`` long from ``h_old``; ``step``
     the most bases a strand adds in a flow): by the strands still at or before a run resized
     (:func:`leak_left`, with ``lip``), or, once the flow programs agree again, by the strands
-    the two models place apart (:func:`apart`, with ``sums``)."""
+    the two models place apart (:func:`apart`, with ``pre``)."""
     n = y.size
     state, scale, buf, ck_dist, ck_int, ck_scale, _, _, _, reach = base
     t_state, t_scale, t_buf, t_ck_dist, t_ck_int, t_ck_scale, t_signal, t_a, t_calls, \
@@ -518,7 +505,7 @@ def _score_from(y, flows, eps, lam, droop, run, p_tab, l0, l1, log_len, floor, s
                             + 2.0 * TINY * run.shape[0] * (n - ke))  # strands dropped
                 for i in range(SPANS.size):
                     if e <= SPANS[i]:
-                        if total + rest - e * sums[i, ke] - slack >= nll - 1e-9:
+                        if total + rest - e * (pre[i, n] - pre[i, ke]) - slack >= nll - 1e-9:
                             return -1
                         break
         k = ke
@@ -558,13 +545,29 @@ def _keep(base, trial, kc, n, allow, t_allow, p_pos, t_pos, cum, t_cum) -> None:
 
 
 @NJIT
-def _largest_first(z: np.ndarray, z_min: float) -> np.ndarray:  # pragma: no cover - compiled
-    """``np.argsort(-z)`` up to the last ``z ≥ z_min``: sorted among those alone when they are
-    all distinct (then the order is the same), else the whole sort (ties keep its order)."""
-    idx = np.flatnonzero(z >= z_min)
-    sub = np.sort(z[idx])
-    for i in range(1, sub.size):
-        if sub[i] == sub[i - 1]:
-            return np.argsort(-z)[:idx.size]
-    return idx[np.argsort(-z[idx])]
+def _largest_first(z: np.ndarray, z_min: float, m: int) -> np.ndarray:  # pragma: no cover
+    """The first ``m`` of ``np.argsort(-z)``, among the ``z ≥ z_min``: kept sorted by
+    insertion while they are all distinct (then the order is the sort's), else the whole sort
+    (ties keep its order)."""
+    top = np.empty(m, dtype=np.int64)
+    cnt = 0
+    for k in range(z.size):
+        v = z[k]
+        if not v >= z_min or (cnt == m and v < z[top[m - 1]]):
+            continue
+        i = min(cnt, m - 1)  # where it goes; a full list drops its last
+        while i > 0 and z[top[i - 1]] < v:
+            if i < m:
+                top[i] = top[i - 1]
+            i -= 1
+        if (i > 0 and z[top[i - 1]] == v) or (cnt == m and i == m - 1 and z[top[i]] == v):
+            return _sorted_prefix(z, z_min, m)
+        top[i] = k
+        cnt = min(cnt + 1, m)
+    return top[:cnt]
 
+
+@NJIT
+def _sorted_prefix(z: np.ndarray, z_min: float, m: int) -> np.ndarray:  # pragma: no cover
+    """:func:`_largest_first` when two of the ``z ≥ z_min`` tie: the whole sort."""
+    return np.argsort(-z)[:min(m, int(np.sum(z >= z_min)))]

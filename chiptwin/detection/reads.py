@@ -42,15 +42,20 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from chiptwin.detection._posterior_kernels import (
+    mixed_posterior,
+    posterior_kernel,
+    window_inflation,
+)
 from chiptwin.detection._read_kernels import (
+    P_POS_MIN,
     _score,
     context_prior,
     dephase_kernel,
     polish_kernel,
-    posterior_kernel,
     template_of,
 )
-from chiptwin.kinetics._phasing_kernels import droop_scale, phase_bases, phase_flows
+from chiptwin.kinetics._phasing_kernels import phase_flows
 
 CALLERS = ("round", "dephase")
 """The base callers a scene may name (``[assay] caller``)."""
@@ -191,14 +196,12 @@ def local_inflation(y: np.ndarray, signal: np.ndarray, noise: FlowNoise,
                     half: int = RESIDUAL_HALF_WINDOW) -> np.ndarray:
     """Each flow's variance factor ``max(1, mean of (y − s)²/var over its window)``: where the
     model of the read misses (neighbouring calls wrong, phasing misestimated), the residuals
-    say so, and the posterior widens by as much."""
-    z2 = (y - signal) ** 2 / noise.var(signal)
-    kernel = np.ones(2 * half + 1)
-    # the full convolution's centred part: NumPy's mode="same" is as long as the longer input,
-    # the kernel's 17 flows for a read shorter than it
-    num = np.convolve(z2, kernel)[half:half + z2.size]
-    den = np.convolve(np.ones_like(z2), kernel)[half:half + z2.size]
-    return np.maximum(1.0, num / den)
+    say so, and the posterior widens by as much. The window is clipped to the read."""
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    out = np.empty(y.size)
+    window_inflation(y, np.ascontiguousarray(signal, dtype=np.float64), noise.floor,
+                     noise.shot, noise.ref, half, out)
+    return out
 
 
 def phase_model(calls: np.ndarray, flows: np.ndarray, eps: float, lam: float, droop: float
@@ -350,17 +353,39 @@ def keep_phasing(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: np.n
     values) and the two call sets scored over every flow, each non-zero parameter charged
     :data:`PHASING_PENALTY`. A flowgram already phase-corrected shows its first flows' noise as
     a little ε or λ (454's Titanium values: ε 0.1–0.2 % on 21 of 24 reads), which, carried over
-    800 flows, miscalls the read's far end; a phased read's far end needs it."""
+    800 flows, miscalls the read's far end; a phased read's far end needs it. The flat re-call
+    is skipped when no call set without phasing could win (:func:`flat_floor`): on
+    ``pyro_long_read`` every read, a ninth of the caller's time."""
     if not any(par):
         return calls, par
     cost = PHASING_PENALTY * np.log(max(y.size, 1)) * sum(p > 0 for p in par)
     phased = read_nll(y, flows, noise, calls, par, prior) + cost
+    if flat_floor(y, noise) > phased + 1e-9 * (abs(phased) + 1.0):
+        return calls, par  # no call set without phasing could score better
     flat = dephase(y, flows, noise, 0.0, 0.0, 0.0,
                    np.clip(np.rint(y), 0, MAX_CALL).astype(np.int64), prior)[0]
     flat = polish(y, flows, noise, (0.0, 0.0, 0.0), flat, prior)
     if read_nll(y, flows, noise, flat, (0.0, 0.0, 0.0), prior) <= phased:
         return flat, (0.0, 0.0, 0.0)
     return calls, par
+
+
+def flat_floor(y: np.ndarray, noise: FlowNoise) -> float:
+    """The least negative log-posterior any call set scores without phasing (ε = λ = δ = 0):
+    each flow's light is then a whole number ``s`` of bases, and its term
+    ``(y − s)²/2v(s) + log v(s)/2`` rises with ``s`` past ``y`` (``s·v′(s) < 2v(s)`` for
+    ``v = floor + shot·s + ref·s²``), so each flow's least is among ``s = 0 … ⌈y⌉`` (``y``
+    taken as 0 where it is negative, which only lowers the term); the prior adds at least
+    ``−log(1 − P_POS_MIN)`` a flow. On a phased read the leak makes most flows' light fall
+    between whole numbers and this alone exceeds the phased calls' score, so the flat re-call
+    of :func:`keep_phasing` (its sweep and hill climb) need not run."""
+    yy = np.maximum(np.asarray(y, dtype=np.float64), 0.0)
+    s = np.arange(int(np.ceil(yy.max(initial=0.0))) + 1, dtype=np.float64)
+    v = noise.floor + noise.shot * s + noise.ref * s * s
+    term = 0.5 * (yy[:, None] - s[None, :]) ** 2 / v + 0.5 * np.log(v)
+    # s above ⌈y⌉ is never the least (the term rises there)
+    term = np.where(s[None, :] <= np.ceil(yy)[:, None], term, np.inf)
+    return float(term.min(axis=1).sum() - yy.size * np.log(1.0 - P_POS_MIN))
 
 
 def rescale(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: np.ndarray,
@@ -438,28 +463,22 @@ def final_posterior(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: n
     averaged over the phasing estimate's neighbours on the search grids (ε, λ, δ one step either
     way, weighted by the read's likelihood under each: the estimate's own uncertainty), with the
     variance widened where the read's residuals exceed the predicted noise
-    (:func:`local_inflation`)."""
+    (:func:`local_inflation`) and by :data:`MODEL_INFLATION`; neighbours weighing less than
+    :data:`MIN_WEIGHT` are left out."""
     prior = Prior.of(calls, flows)
-    p_pos = prior.p_pos(calls, flows)
-    tmpl = template_of(calls.astype(np.int64), flows)
-    models, logw = [], []
-    for e in _neighbours(EPS_GRID, par[0]):
-        for lm in _neighbours(LAMBDA_GRID, par[1]):
-            bases, in_phase, _ = phase_bases(tmpl, flows, e, lm)  # droop only scales it
-            for d in _neighbours(DROOP_GRID, par[2]):
-                scale = droop_scale(y.size, d)
-                signal, a = bases * scale, in_phase * scale
-                inflate = local_inflation(y, signal, noise) * MODEL_INFLATION
-                v = noise.var(signal) * inflate
-                models.append((signal, a, inflate))
-                logw.append(-0.5 * float(np.sum((y - signal) ** 2 / v + np.log(v))))
-    w = np.exp(np.array(logw) - max(logw))
-    w /= w.sum()
-    post = np.zeros((y.size, MAX_CALL + 1))
-    for wi, (signal, a, inflate) in zip(w, models, strict=True):
-        if wi > 0:  # most neighbours of a sharp read weigh exactly 0
-            post += wi * posterior(y, a, signal - a * calls, noise, p_pos, prior.log_len, inflate)
-    return post
+    calls = calls.astype(np.int64)
+    grid = [np.array(_neighbours(g, v)) for g, v in zip((EPS_GRID, LAMBDA_GRID, DROOP_GRID), par,
+                                                        strict=True)]
+    return mixed_posterior(np.ascontiguousarray(y, dtype=np.float64), template_of(calls, flows),
+                           flows, calls, *grid, noise.floor, noise.shot, noise.ref,
+                           prior.p_pos(calls, flows), prior.log_len, RESIDUAL_HALF_WINDOW,
+                           MODEL_INFLATION, MIN_WEIGHT)
+
+
+#: The least weight a phasing neighbour's posterior is mixed in with (:func:`final_posterior`):
+#: one below it moves no probability by more than 1e-12, eight decades under the 1e-4 at which
+#: the qualities stop (:data:`Q_MAX`).
+MIN_WEIGHT = 1e-12
 
 
 def call_rounded(y: np.ndarray, flows: np.ndarray, noise: FlowNoise) -> Read:

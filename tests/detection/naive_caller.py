@@ -1,6 +1,6 @@
 """The dephasing caller's sweep and hill climb as first written: the whole flowgram predicted
-again for every step and every candidate (:func:`chiptwin.kinetics._phasing_kernels.phase_flows`
-from flow 0). The slow, obvious reference the incremental kernels of
+again for every step and every candidate (the phasing model's flowgram from flow 0, on that
+model's kernels as first written, kept below). The slow, obvious reference the incremental kernels of
 :mod:`chiptwin.detection._read_kernels` are held to (same calls, same likelihoods), and the
 baseline ``benchmarks/bench_long_reads.py`` times them against."""
 
@@ -11,14 +11,108 @@ import math
 import numpy as np
 
 from chiptwin._numba import NJIT
+from chiptwin.detection._posterior_kernels import posterior_kernel
 from chiptwin.detection._read_kernels import (
-    _score,
     context_prior,
     nll_kernel,
-    posterior_kernel,
     template_of,
 )
-from chiptwin.kinetics._phasing_kernels import phase_flows
+from chiptwin.kinetics._phasing_kernels import TINY, droop_scale, run_table
+
+# -- the phasing model's kernels as first written (chiptwin.kinetics._phasing_kernels before its
+#    flow step summed the shares that stay in a register and dropped reference counting): the
+#    baseline is the caller as it was, and the same calls show the new step's bits are these --
+
+@NJIT
+def flow_step(run: np.ndarray, x: int, prev: int, eps: float, lam: float, dist: np.ndarray,
+              new: np.ndarray, lo: int, hi: int) -> tuple:  # pragma: no cover - compiled
+    """One flow: the strands of ``dist[lo..hi]`` held, extended or carried into ``new``."""
+    bases = 0.0
+    new_hi = hi
+    for j in range(lo, hi + 1):
+        d = dist[j]
+        if d == 0.0:
+            continue
+        held = eps * d
+        active = d - held
+        carry = lam * active if prev >= 0 else 0.0
+        normal = active - carry
+        r = run[j, x]
+        new[j] += held
+        new[j + r] += normal
+        bases += normal * r
+        if j + r > new_hi:
+            new_hi = j + r
+        if carry > 0.0:
+            r2 = run[j + r, prev]
+            new[j + r + r2] += carry
+            bases += carry * (r + r2)
+            if j + r + r2 > new_hi:
+                new_hi = j + r + r2
+    return bases, new_hi
+
+
+@NJIT
+def trim(dist: np.ndarray, old: np.ndarray, lo: int, hi: int,
+         new_hi: int) -> tuple:  # pragma: no cover - compiled
+    """Clear ``old`` and drop the tails' shares below ``TINY``."""
+    old[lo:hi + 1] = 0.0
+    hi = new_hi
+    while lo < hi and dist[lo] < TINY:
+        dist[lo] = 0.0  # a share below TINY of the strands: dropped, not carried
+        lo += 1
+    while hi > lo and dist[hi] < TINY:
+        dist[hi] = 0.0
+        hi -= 1
+    return lo, hi
+
+
+@NJIT
+def phase_flows(tmpl: np.ndarray, flows: np.ndarray, eps: float, lam: float,
+                droop: float) -> tuple:  # pragma: no cover - compiled
+    """(signal, in-phase weight, ideal counts) per flow of the template, drooping."""
+    bases, in_phase, ideal = phase_bases(tmpl, flows, eps, lam)
+    scale = droop_scale(flows.size, droop)
+    return bases * scale, in_phase * scale, ideal
+
+
+@NJIT
+def phase_bases(tmpl: np.ndarray, flows: np.ndarray, eps: float,
+                lam: float) -> tuple:  # pragma: no cover - compiled
+    """:func:`phase_flows` without droop."""
+    n_pos = tmpl.size
+    run = run_table(tmpl)
+    dist = np.zeros(n_pos + 1)
+    new = np.zeros(n_pos + 1)
+    dist[0] = 1.0
+    n = flows.size
+    bases = np.zeros(n)
+    in_phase = np.zeros(n)
+    ideal = np.zeros(n, dtype=np.int64)
+    lo, hi, pos, prev = 0, 0, 0, -1
+    for k in range(n):
+        x = flows[k]
+        ideal[k] = run[pos, x]
+        in_phase[k] = (1.0 - eps) * dist[pos]
+        bases[k], new_hi = flow_step(run, x, prev, eps, lam, dist, new, lo, hi)
+        dist, new = new, dist
+        lo, hi = trim(dist, new, lo, hi, new_hi)
+        pos += ideal[k]
+        prev = x
+    return bases, in_phase, ideal
+
+
+
+
+@NJIT
+def _score(y: np.ndarray, flows: np.ndarray, calls: np.ndarray, eps: float, lam: float,
+           droop: float, comp: np.ndarray, log_len: np.ndarray, floor: float, shot: float,
+           ref: float) -> tuple:  # pragma: no cover - compiled
+    """(nll, signal, ideal) of a call set, on the model above."""
+    signal, _, ideal = phase_flows(template_of(calls, flows), flows, eps, lam, droop)
+    p_pos = context_prior(ideal, flows, comp, comp.size)
+    return nll_kernel(y, signal, ideal, floor, shot, ref, p_pos, log_len, y.size), signal, ideal
+
 
 
 @NJIT
@@ -116,7 +210,8 @@ def final_posterior(y: np.ndarray, flows: np.ndarray, noise, calls: np.ndarray,
     for e in reads._neighbours(reads.EPS_GRID, par[0]):
         for lm in reads._neighbours(reads.LAMBDA_GRID, par[1]):
             for d in reads._neighbours(reads.DROOP_GRID, par[2]):
-                signal, a, _ = reads.phase_model(calls, flows, e, lm, d)
+                signal, a, _ = phase_flows(template_of(calls.astype(np.int64), flows),
+                                           flows, e, lm, d)
                 inflate = reads.local_inflation(y, signal, noise) * reads.MODEL_INFLATION
                 posts.append(reads.posterior(y, a, signal - a * calls, noise, p_pos,
                                              prior.log_len, inflate))
@@ -126,9 +221,27 @@ def final_posterior(y: np.ndarray, flows: np.ndarray, noise, calls: np.ndarray,
     return np.tensordot(w / w.sum(), np.array(posts), axes=1)
 
 
+def keep_phasing(y: np.ndarray, flows: np.ndarray, noise, calls: np.ndarray,
+                 par: tuple[float, float, float], prior) -> tuple:
+    """:func:`chiptwin.detection.reads.keep_phasing` as first written: the read called again
+    without phasing every time, whether or not such calls could score better."""
+    from chiptwin.detection import reads
+
+    if not any(par):
+        return calls, par
+    cost = reads.PHASING_PENALTY * np.log(max(y.size, 1)) * sum(p > 0 for p in par)
+    phased = reads.read_nll(y, flows, noise, calls, par, prior) + cost
+    flat = reads.dephase(y, flows, noise, 0.0, 0.0, 0.0,
+                         np.clip(np.rint(y), 0, reads.MAX_CALL).astype(np.int64), prior)[0]
+    flat = reads.polish(y, flows, noise, (0.0, 0.0, 0.0), flat, prior)
+    if reads.read_nll(y, flows, noise, flat, (0.0, 0.0, 0.0), prior) <= phased:
+        return flat, (0.0, 0.0, 0.0)
+    return calls, par
+
+
 #: What :func:`use_naive` swaps into :mod:`chiptwin.detection.reads`.
 NAIVE = {"dephase_kernel": dephase_kernel, "polish_kernel": polish_kernel,
-         "final_posterior": final_posterior}
+         "final_posterior": final_posterior, "keep_phasing": keep_phasing}
 
 
 def use_naive(module) -> dict:

@@ -97,6 +97,74 @@ def test_sweep_and_hill_climb_match_the_naive_kernels(case):
             assert np.array_equal(rk.polish_kernel(*pol), naive.polish_kernel(*pol))
 
 
+@pytest.mark.parametrize("seed", range(8))
+def test_flow_step_is_the_first_written_step_bit_for_bit(seed):
+    """The phasing model's flow step, its waiting shares summed in a register, against the step
+    as first written (kept in the naive caller): the same flowgram, in-phase share and ideal
+    calls to the bit, at zero and at large phasing, on templates with long runs."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(8, 400))
+    tmpl = np.repeat(rng.integers(0, 4, 200), rng.integers(1, 9 if seed % 2 else 3, 200))
+    flows = phasing.flow_indices("TACG", n)
+    for par in ((0.0, 0.0, 0.0), (0.002, 0.01, 0.001), (0.0, 0.03, 0.0), (0.02, 0.0, 0.0),
+                tuple(rng.uniform(0, [0.05, 0.08, 0.02]))):
+        for got, want in zip(pk.phase_flows(tmpl, flows, *par),
+                             naive.phase_flows(tmpl, flows, *par), strict=True):
+            assert np.array_equal(got, want)
+
+
+@pytest.mark.parametrize(("par", "sigma"), [((0.002, 0.01, 0.001), 0.05),
+                                            ((0.0, 0.0, 0.0), 0.05),
+                                            ((0.0, 0.0, 0.0), 0.12)])
+def test_whole_caller_matches_the_first_written_caller(par, sigma):
+    """Equivalence of the whole read model (phasing search, sweeps, hill climbs, the flat
+    re-call kept or skipped by ``flat_floor``, the posterior): the same calls and phasing as the
+    caller with every kernel as first written, and the posterior to 1e-9, on phased reads and
+    on reads that need no correction (where the flat re-call wins)."""
+    rng = np.random.default_rng(int(sigma * 100) + int(par[0] * 1e4))
+    n = 160
+    flows = phasing.flow_indices("TACG", n)
+    flat_won = 0
+    for _ in range(4):
+        y, noise = _phased_read(rng, n, *par, sigma)
+        fast = reads.read_model(y, flows, noise)
+        old = naive.use_naive(reads)
+        try:
+            slow = reads.read_model(y, flows, noise)
+        finally:
+            naive.restore(reads, old)
+        assert np.array_equal(fast.calls, slow.calls)
+        assert (fast.eps, fast.lam, fast.droop) == (slow.eps, slow.lam, slow.droop)
+        np.testing.assert_allclose(fast.posterior, slow.posterior, rtol=0, atol=1e-9)
+        flat_won += not any((fast.eps, fast.lam, fast.droop))
+    assert flat_won >= (2 if par == (0.0, 0.0, 0.0) else 0)
+
+
+@pytest.mark.parametrize(("seed", "par"), [(0, (0.004, 0.02, 0.001)), (1, (0.002, 0.01, 0.0)),
+                                           (2, (0.0, 0.0, 0.0)), (3, (0.0, 0.0, 0.0))])
+def test_flat_floor_bounds_every_unphased_call_set(seed, par):
+    """``flat_floor`` is below the score of any call set without phasing: the flat sweep's and
+    hill climb's, the rounded and floored values', one drawn at random; on a read without
+    phasing it is within a nat a flow of the best of them (the prior's share is bounded, not
+    known), so it is not vacuous."""
+    rng = np.random.default_rng(seed)
+    n = 200
+    flows = phasing.flow_indices("TACG", n)
+    y, noise = _phased_read(rng, n, *par, 0.03)
+    y[np.abs(y) < 0.2] *= -1.0  # empty flows read below 0 too: the floor takes them as 0
+    floor = reads.flat_floor(y, noise)
+    prior = reads.Prior.of(np.clip(np.rint(y), 0, reads.MAX_CALL).astype(np.int64), flows)
+    sets = [np.clip(np.rint(y), 0, reads.MAX_CALL).astype(np.int64),
+            np.clip(np.floor(np.maximum(y, 0)), 0, reads.MAX_CALL).astype(np.int64),
+            rng.integers(0, 4, n)]
+    flat = reads.dephase(y, flows, noise, 0.0, 0.0, 0.0, sets[0], prior)[0]
+    sets.append(reads.polish(y, flows, noise, (0.0, 0.0, 0.0), flat, prior))
+    scores = [reads.read_nll(y, flows, noise, c, (0.0, 0.0, 0.0), prior) for c in sets]
+    assert min(scores) >= floor
+    if not any(par):
+        assert min(scores) < floor + n
+
+
 def test_the_least_term_bounds_every_flows_term():
     """The hill climb drops a candidate on a lower bound of the flows it has not scored: every
     flow's share of the negative log-posterior, over lengths, priors and signals, is above it."""
