@@ -1,8 +1,9 @@
-"""The dephasing caller's sweep and hill climb as first written: the whole flowgram predicted
-again for every step and every candidate (the phasing model's flowgram from flow 0, on that
-model's kernels as first written, kept below). The slow, obvious reference the incremental kernels of
-:mod:`chiptwin.detection._read_kernels` are held to (same calls, same likelihoods), and the
-baseline ``benchmarks/bench_long_reads.py`` times them against."""
+"""The dephasing caller as first written: the whole flowgram predicted again for every sweep
+step and hill-climb candidate (from flow 0, on the phasing model's kernels as first written,
+kept below), every phasing neighbour's posterior computed, the read always called again without
+phasing. The slow, obvious reference the fast caller (:mod:`chiptwin.detection._read_kernels`,
+:mod:`chiptwin.detection.reads`) is held to (same calls, same likelihoods), and the baseline
+``benchmarks/bench_long_reads.py`` times it against."""
 
 from __future__ import annotations
 
