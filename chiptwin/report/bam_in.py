@@ -1,10 +1,30 @@
 """BAM in: Ion Torrent's flowgrams through pysam (the ``bam`` extra), aligned or not.
 
-Per read, as Torrent Suite writes it: ``FZ`` the flow signals × 100 from flow 0 (key flows
-included; already phase-corrected), ``ZF`` the flow of the read's first base after the key, the
-read group's ``FO`` flow order (one letter per flow, e.g. 1,000 flows, not a repeating cycle) and
-``KS`` key. The stored sequence and qualities (without the key) are the instrument's calls; a
-reverse-strand read is turned back to flow order (reverse-complemented, qualities reversed).
+Per read, as Torrent Suite's BaseCaller writes it (``Analysis/BaseCaller/BaseCaller.cpp`` of the
+iontorrent/TS repository, releases 2.2 to 5.18): the flow signals in ``FZ`` or ``ZM``, ``ZF`` the
+flow of the read's first base after the key (and barcode), the read group's ``FO`` flow order
+(one letter per flow, e.g. 1,000 flows, not a repeating cycle) and ``KS`` key. The stored
+sequence and qualities (without the key) are the instrument's calls; a reverse-strand read is
+turned back to flow order (reverse-complemented, qualities reversed).
+
+- ``FZ`` (``B:S``): flow values × 100, rounded, from flow 0 (key flows included). Up to release
+  3.2 BaseCaller's flowgram was its "corrected ionogram": already phase-corrected. From 3.4 on
+  ``FZ`` is written only on request (``--flow-signals-type``, default ``none``).
+- ``ZM`` (``B:s``, from 3.4 on, every read): the normalised flow signals before phase
+  correction (carry-forward, incomplete extension and droop still in them: ``--caller dephase``
+  fits those), also from flow 0 with the key flows, stored as ``2·trunc(128·x)`` (clipped to
+  ±32,766 from release 4.6 on; ``scaleup_flowgram`` from 5.2). Read as ZM / 256, as Torrent
+  Suite's own readers do (``VariantCaller/Reads/ExtendedReadInfo.cpp``,
+  ``Converter/bam2sff.cpp``): within 1/128 of the value, toward 0. It stops 16 flows after the
+  flow of the read's last base (from 5.4 unless ``--trim-zm`` is off, always before); a short
+  array is kept as a short ``FZ`` is (the read has that many flows), one longer than the flow
+  order refused.
+- ``ZP`` (``B:f``): the read's carry-forward, incomplete extension and droop fitted by
+  BaseCaller; summarised in the file's notes, not used (the dephasing caller fits its own).
+
+A read carrying both reads ``FZ`` (the values this reader is validated against on real data;
+Torrent Suite's bam2sff takes ``ZM``), and the notes say how many did; a read with neither is
+refused naming both tags.
 
 The truth of an aligned read is the reference under it, rebuilt from its CIGAR and ``MD`` tag
 (:func:`reference_from_md`; the reference itself is not needed), reverse-complemented for a
@@ -18,6 +38,7 @@ from __future__ import annotations
 import re
 import warnings
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -85,12 +106,37 @@ def _soft_clip_5p(cigar: list[tuple[int, int]], reverse: bool) -> int:
     return end[1] if end[0] == _S else 0
 
 
-def _flow_signals(path: Path, rec, number: int) -> np.ndarray:
-    if not rec.has_tag("FZ"):
-        raise ScenarioError(str(path), f"record {number} ({rec.query_name})", "no FZ tag",
+#: Flow-signal tags in the order they are read, each with its counts per 1-mer (module docstring).
+SIGNAL_TAGS = {"FZ": 100.0, "ZM": 256.0}
+
+
+def _flow_signals(path: Path, rec, where: str) -> tuple[np.ndarray, str]:
+    """The read's flow values from flow 0 (1-mer ≈ 1) and the tag they came from: ``FZ`` when
+    present, else ``ZM``; an integer array either way."""
+    tag = next((t for t in SIGNAL_TAGS if rec.has_tag(t)), None)
+    if tag is None:
+        raise ScenarioError(str(path), where, "no FZ or ZM tag",
                             "every read needs its flow signals: the FZ tag (values × 100 from "
-                            "flow 0), as Torrent Suite writes it")
-    return np.asarray(rec.get_tag("FZ"), dtype=np.float64) / 100.0
+                            "flow 0) or the ZM tag (values × 256 from flow 0), as Torrent Suite "
+                            "writes them")
+    raw = np.asarray(rec.get_tag(tag))
+    if raw.ndim != 1 or raw.dtype.kind not in "iu":
+        shown = f"{raw.dtype.name} array of {raw.size}" if raw.ndim == 1 else rec.get_tag(tag)
+        raise ScenarioError(str(path), f"{where} {tag}", shown,
+                            "must be an array of integers (B:S for FZ, B:s for ZM), as Torrent "
+                            "Suite writes it")
+    return raw.astype(np.float64) / SIGNAL_TAGS[tag], tag
+
+
+def _phasing(rec) -> tuple[float, float, float] | None:
+    """The read's ``ZP`` carry-forward, incomplete extension and droop, when it holds three
+    fractions in [0, 1] (the range Torrent Suite's variant caller accepts)."""
+    if not rec.has_tag("ZP"):
+        return None
+    zp = np.asarray(rec.get_tag("ZP"))
+    if zp.shape != (3,) or zp.dtype.kind not in "fiu" or not np.all((zp >= 0) & (zp <= 1)):
+        return None
+    return float(zp[0]), float(zp[1]), float(zp[2])
 
 
 def _read_group(path: Path, header: dict, rg: str | None, number: int) -> tuple[str, str]:
@@ -105,6 +151,17 @@ def _read_group(path: Path, header: dict, rg: str | None, number: int) -> tuple[
     return str(group["FO"]).upper(), str(group["KS"]).upper()
 
 
+class _Record(NamedTuple):
+    """One primary record read: whether an aligned one had ``MD``, the tag its flow values came
+    from, whether it carried both, and its ``ZP`` phasing."""
+
+    read: MeasuredRead
+    has_md: bool
+    tag: str
+    both: bool
+    phasing: tuple[float, float, float] | None
+
+
 def read_bam(path: Path) -> FlowgramFile:
     """Every primary read of the BAM file at ``path`` (module docstring)."""
     pysam = require("bam", path)
@@ -112,29 +169,47 @@ def read_bam(path: Path) -> FlowgramFile:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # "no BGZF EOF marker": a truncated read says more
-            reads, flow_order, key = _records(pysam, path)
+            records, flow_order, key = _records(pysam, path)
     finally:
         pysam.set_verbosity(verbosity)
-    if not reads:
+    if not records:
         raise ScenarioError(str(path), "reads", 0, "must hold one primary read or more")
-    no_md = sum(not has_md for _, has_md in reads)
-    aligned = any(r.truth is not None for r, _ in reads)
+    aligned = any(r.read.truth is not None for r in records)
     return FlowgramFile(path, "bam", "Ion Torrent (BAM)", flow_order, key,
-                        [r for r, _ in reads], truth_source="alignment" if aligned else None,
-                        notes=[f"{no_md} aligned reads have no MD tag: no truth for them"]
-                        if no_md else [])
+                        [r.read for r in records],
+                        truth_source="alignment" if aligned else None, notes=_notes(records))
 
 
-def _records(pysam, path: Path) -> tuple[list[tuple[MeasuredRead, bool]], str, str]:
-    """The primary records, each with whether an aligned one had MD, and the flow order and
-    key; a corrupted or truncated file refused naming the record and the byte (the BGZF
-    block's offset)."""
+def _notes(records: list[_Record]) -> list[str]:
+    """What the file's reader did that the figures do not show."""
+    notes = []
+    no_md = sum(not r.has_md for r in records)
+    if no_md:
+        notes.append(f"{no_md} aligned reads have no MD tag: no truth for them")
+    zm = sum(r.tag == "ZM" for r in records)
+    if zm:
+        notes.append(f"{zm} reads' flow values from ZM (÷ 256; normalised, not phase-corrected: "
+                     "--caller dephase fits their phasing)")
+    both = sum(r.both for r in records)
+    if both:
+        notes.append(f"{both} reads carry both FZ and ZM: FZ read")
+    zp = np.array([r.phasing for r in records if r.phasing is not None])
+    if zp.size:
+        cf, ie, dr = np.median(zp, axis=0)
+        notes.append(f"{len(zp)} reads carry the instrument's phasing (ZP), not used: median "
+                     f"carry-forward {cf:.4f}, incomplete extension {ie:.4f}, droop {dr:.4f}")
+    return notes
+
+
+def _records(pysam, path: Path) -> tuple[list[_Record], str, str]:
+    """The primary records, and the flow order and key; a corrupted or truncated file refused
+    naming the record and the byte (the BGZF block's offset)."""
     try:
         bam = pysam.AlignmentFile(str(path), "rb", check_sq=False, ignore_truncation=True)
     except (ValueError, OSError) as exc:
         raise ScenarioError(str(path), "header", str(exc),
                             "must be a whole, uncorrupted BAM file") from None
-    out: list[tuple[MeasuredRead, bool]] = []
+    out: list[_Record] = []
     header = bam.header.to_dict()
     flow_order = key = ""
     number = 0
@@ -160,8 +235,7 @@ def _records(pysam, path: Path) -> tuple[list[tuple[MeasuredRead, bool]], str, s
             elif (fo, ks) != (flow_order, key):
                 raise ScenarioError(str(path), f"record {number} read group", rec.get_tag("RG"),
                                     "every read must share one flow order and key")
-            read, has_md = _read(path, rec, number, flow_order, key)
-            out.append((read, has_md))
+            out.append(_read(path, rec, number, flow_order, key))
     finally:
         try:
             bam.close()
@@ -170,13 +244,12 @@ def _records(pysam, path: Path) -> tuple[list[tuple[MeasuredRead, bool]], str, s
     return out, flow_order, key
 
 
-def _read(path: Path, rec, number: int, flow_order: str, key: str
-          ) -> tuple[MeasuredRead, bool]:
+def _read(path: Path, rec, number: int, flow_order: str, key: str) -> _Record:
     """One primary record in flow order, with its truth when it is aligned with ``MD``."""
-    values = _flow_signals(path, rec, number)
     where = f"record {number} ({rec.query_name})"
+    values, tag = _flow_signals(path, rec, where)
     if values.size > len(flow_order):
-        raise ScenarioError(str(path), where, f"{values.size} flow signals",
+        raise ScenarioError(str(path), f"{where} {tag}", f"{values.size} flow signals",
                             f"must be at most the read group's {len(flow_order)} flows")
     if rec.has_tag("ZF") and rec.get_tag("ZF") < key_flows(key, flow_order)[-1]:
         raise ScenarioError(str(path), f"{where} ZF", rec.get_tag("ZF"),
@@ -202,4 +275,5 @@ def _read(path: Path, rec, number: int, flow_order: str, key: str
                                     ) from None
             truth_from = _soft_clip_5p(rec.cigartuples, reverse)
             truth = flow_seq[:truth_from] + (reverse_complement(ref) if reverse else ref)
-    return MeasuredRead(rec.query_name, values, flow_seq, flow_qual, truth, truth_from), has_md
+    read = MeasuredRead(rec.query_name, values, flow_seq, flow_qual, truth, truth_from)
+    return _Record(read, has_md, tag, all(rec.has_tag(t) for t in SIGNAL_TAGS), _phasing(rec))
