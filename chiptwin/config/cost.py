@@ -221,8 +221,9 @@ DETECT_SITE_FLOW_S: float = 6.0e-5
 #: The callers' cost per read and flow (chiptwin.detection.reads.read_model: phasing search,
 #: sweeps, hill climb, averaged posterior; ``dephase`` calls from it, ``round`` states its
 #: qualities from the same posterior, so both pay it): pyro_long_read, 128 reads × 400
-#: flows, ≈ 0.1 s a read on one core of a 2-core machine. Unit: s.
-DEPHASE_FLOW_S = 2.5e-4
+#: flows, 1.13–1.18 s on one core of a quiet 2-core machine (2.2e-5 s a read-flow;
+#: benchmarks/bench_long_reads.py), rounded up for a loaded one. Unit: s.
+DEPHASE_FLOW_S = 3.0e-5
 
 
 def n_frames(s: Scenario) -> int:

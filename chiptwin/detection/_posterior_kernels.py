@@ -21,10 +21,11 @@ from chiptwin.kinetics._phasing_kernels import droop_scale, phase_bases
 
 @NJIT
 def posterior_kernel(y: np.ndarray, a: np.ndarray, b: np.ndarray, floor: float, shot: float,
-                     ref: float, p_pos: np.ndarray, log_len: np.ndarray, inflate: np.ndarray
-                     ) -> np.ndarray:  # pragma: no cover - compiled
+                     ref: float, p_pos: np.ndarray, log_len: np.ndarray, inflate: np.ndarray,
+                     beta: float) -> np.ndarray:  # pragma: no cover - compiled
     """P(h | y_k), h = 0 … len(log_len) − 1: Normal(a h + b, floor + shot m + ref m²) times the
-    prior ``1 − p_pos[k]`` (h = 0) or ``p_pos[k]·exp(log_len[h])`` (h ≥ 1)."""
+    prior ``1 − p_pos[k]`` (h = 0) or ``p_pos[k]·exp(log_len[h])`` (h ≥ 1); the mean of
+    ``h = 0`` has the empty-flow light ``beta`` added."""
     n, m = y.size, log_len.size
     post = np.empty((n, m))
     for k in range(n):
@@ -32,6 +33,8 @@ def posterior_kernel(y: np.ndarray, a: np.ndarray, b: np.ndarray, floor: float, 
         l0, l1 = math.log(1.0 - p_pos[k]), math.log(p_pos[k])
         for h in range(m):
             mean = a[k] * h + b[k]
+            if h == 0:
+                mean += beta
             mp = max(mean, 0.0)
             var = (floor + shot * mp + ref * mp * mp) * inflate[k]
             d = y[k] - mean
@@ -71,16 +74,18 @@ def window_inflation(y: np.ndarray, signal: np.ndarray, floor: float, shot: floa
 def mixed_posterior(y: np.ndarray, tmpl: np.ndarray, flows: np.ndarray, calls: np.ndarray,
                     eps_v: np.ndarray, lam_v: np.ndarray, droop_v: np.ndarray, floor: float,
                     shot: float, ref: float, p_pos: np.ndarray, log_len: np.ndarray,
-                    half: int, widen: float, w_min: float) -> np.ndarray:  # pragma: no cover
+                    half: int, widen: float, w_min: float,
+                    beta: float) -> np.ndarray:  # pragma: no cover - compiled
     """The posterior averaged over every (ε, λ, δ) of the three grids' values: each model's
     flowgram of ``tmpl`` (droop only scales it, so one model per ε, λ), its variance widened by
     :func:`window_inflation` times ``widen``, weighted by the read's likelihood under it. A
     model of weight below ``w_min`` moves no probability by more than that and is left out
-    (on a 400-flow read all but one of the 27 weigh less than 1e-6)."""
+    (on a 400-flow read all but one of the 27 weigh less than 1e-6). Empty flows (``calls``
+    0) carry the empty-flow light ``beta`` besides their signal."""
     n, m = y.size, log_len.size
     n_m = eps_v.size * lam_v.size * droop_v.size
     signal, a, infl = np.empty((n_m, n)), np.empty((n_m, n)), np.empty((n_m, n))
-    logw = np.empty(n_m)
+    logw, light = np.empty(n_m), np.empty(n)
     i = 0
     for e in eps_v:
         for lm in lam_v:
@@ -90,13 +95,14 @@ def mixed_posterior(y: np.ndarray, tmpl: np.ndarray, flows: np.ndarray, calls: n
                 for k in range(n):
                     signal[i, k] = bases[k] * scale[k]
                     a[i, k] = in_phase[k] * scale[k]
-                window_inflation(y, signal[i], floor, shot, ref, half, infl[i])
+                    light[k] = signal[i, k] + beta if calls[k] == 0 else signal[i, k]
+                window_inflation(y, light, floor, shot, ref, half, infl[i])
                 total = 0.0
                 for k in range(n):
                     infl[i, k] *= widen
-                    mp = max(signal[i, k], 0.0)
+                    mp = max(light[k], 0.0)
                     v = (floor + shot * mp + ref * mp * mp) * infl[i, k]
-                    r = y[k] - signal[i, k]
+                    r = y[k] - light[k]
                     total += r * r / v + math.log(v)
                 logw[i] = -0.5 * total
                 i += 1
@@ -109,5 +115,5 @@ def mixed_posterior(y: np.ndarray, tmpl: np.ndarray, flows: np.ndarray, calls: n
             for k in range(n):
                 b[k] = signal[i, k] - a[i, k] * calls[k]
             post += w[i] * posterior_kernel(y, a[i], b, floor, shot, ref, p_pos, log_len,
-                                            infl[i])
+                                            infl[i], beta)
     return post

@@ -105,15 +105,18 @@ def context_prior(calls: np.ndarray, flows: np.ndarray, comp: np.ndarray,
 
 @NJIT
 def nll_kernel(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, floor: float, shot: float,
-               ref: float, p_pos: np.ndarray, log_len: np.ndarray, n_score: int
-               ) -> float:  # pragma: no cover - compiled
-    """Negative log-posterior of the calls over the first ``n_score`` flows."""
+               ref: float, p_pos: np.ndarray, log_len: np.ndarray, n_score: int,
+               beta: float) -> float:  # pragma: no cover - compiled
+    """Negative log-posterior of the calls over the first ``n_score`` flows: each flow
+    Normal(signal, floor + shot·m + ref·m²), the signal with the empty-flow light ``beta``
+    added where the call is 0 (:mod:`chiptwin.detection.reads`)."""
     total = 0.0
     top = log_len.size - 1
     for k in range(n_score):
-        mp = max(signal[k], 0.0)
+        sk = signal[k] + beta if calls[k] == 0 else signal[k]
+        mp = max(sk, 0.0)
         var = floor + shot * mp + ref * mp * mp
-        d = y[k] - signal[k]
+        d = y[k] - sk
         h = min(calls[k], top)
         lp = math.log(1.0 - p_pos[k]) if h == 0 else math.log(p_pos[k]) + log_len[h]
         total += 0.5 * d * d / var + 0.5 * math.log(var) - lp
@@ -123,13 +126,12 @@ def nll_kernel(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, floor: floa
 @NJIT
 def _score(y: np.ndarray, flows: np.ndarray, calls: np.ndarray, eps: float, lam: float,
            droop: float, comp: np.ndarray, log_len: np.ndarray, floor: float, shot: float,
-           ref: float) -> tuple:  # pragma: no cover - compiled
+           ref: float, beta: float) -> tuple:  # pragma: no cover - compiled
     """(nll, signal, ideal) of a call set: its template's flowgram and prior."""
     signal, _, ideal = phase_flows(template_of(calls, flows), flows, eps, lam, droop)
     p_pos = context_prior(ideal, flows, comp, comp.size)
-    return nll_kernel(y, signal, ideal, floor, shot, ref, p_pos, log_len, y.size), signal, ideal
-
-
+    return (nll_kernel(y, signal, ideal, floor, shot, ref, p_pos, log_len, y.size, beta),
+            signal, ideal)
 
 
 @NJIT
@@ -174,14 +176,15 @@ def prior_from(calls: np.ndarray, flows: np.ndarray, p_tab: np.ndarray, k0: int,
 @NJIT
 def terms_from(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, floor: float, shot: float,
                ref: float, p_pos: np.ndarray, log_len: np.ndarray, k0: int, k1: int,
-               total: float, cum: np.ndarray) -> float:  # pragma: no cover - compiled
+               total: float, cum: np.ndarray, beta: float) -> float:  # pragma: no cover
     """:func:`nll_kernel`'s sum continued over flows ``k0 … k1 − 1`` from ``total``, in the same
     order (the same bits); ``cum[k + 1]`` keeps the sum through flow ``k``."""
     top = log_len.size - 1
     for k in range(k0, k1):
-        mp = max(signal[k], 0.0)
+        sk = signal[k] + beta if calls[k] == 0 else signal[k]
+        mp = max(sk, 0.0)
         var = floor + shot * mp + ref * mp * mp
-        d = y[k] - signal[k]
+        d = y[k] - sk
         h = min(calls[k], top)
         lp = math.log(1.0 - p_pos[k]) if h == 0 else math.log(p_pos[k]) + log_len[h]
         total += 0.5 * d * d / var + 0.5 * math.log(var) - lp
@@ -193,15 +196,16 @@ def terms_from(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, floor: floa
 def terms_tab(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, flows: np.ndarray,
               allow: np.ndarray, l0: np.ndarray, l1: np.ndarray, floor: float, shot: float,
               ref: float, log_len: np.ndarray, k0: int, k1: int, total: float,
-              cum: np.ndarray) -> float:  # pragma: no cover - compiled
+              cum: np.ndarray, beta: float) -> float:  # pragma: no cover - compiled
     """:func:`terms_from` with each flow's log prior read from :func:`prior_table` at the flow's
     base and allowed set (``allow``, as :func:`prior_from` keeps it): the same terms in the same
     order, so the same bits."""
     top = log_len.size - 1
     for k in range(k0, k1):
-        mp = max(signal[k], 0.0)
+        sk = signal[k] + beta if calls[k] == 0 else signal[k]
+        mp = max(sk, 0.0)
         var = floor + shot * mp + ref * mp * mp
-        d = y[k] - signal[k]
+        d = y[k] - sk
         h = min(calls[k], top)
         lp = l0[flows[k], allow[k]] if h == 0 else l1[flows[k], allow[k]] + log_len[h]
         total += 0.5 * d * d / var + 0.5 * math.log(var) - lp
@@ -218,16 +222,20 @@ def least_term(floor: float) -> float:  # pragma: no cover - compiled
 
 @NJIT_NORC
 def call_of(yk: float, ak: float, bk: float, floor: float, shot: float, ref: float,
-            p: float, log_len: np.ndarray, row: np.ndarray) -> int:  # pragma: no cover
+            p: float, log_len: np.ndarray, row: np.ndarray,
+            beta: float) -> int:  # pragma: no cover - compiled
     """The likeliest length of one flow: ``argmax`` of
     :func:`chiptwin.detection._posterior_kernels.posterior_kernel`'s row (the same
     arithmetic; normalised as there, so ties break the same way, unless the best log-posterior
-    leads the next by more than rounding could close); ``row`` is scratch."""
+    leads the next by more than rounding could close); ``row`` is scratch. A length's mean is
+    ``ak·h + bk``, plus the empty-flow light ``beta`` for ``h = 0``."""
     m = log_len.size
     top, second, best = -np.inf, -np.inf, 0
     l0, l1 = math.log(1.0 - p), math.log(p)
     for h in range(m):
         mean = ak * h + bk
+        if h == 0:
+            mean += beta
         mp = max(mean, 0.0)
         var = (floor + shot * mp + ref * mp * mp) * 1.0
         d = yk - mean
@@ -255,16 +263,18 @@ def call_of(yk: float, ak: float, bk: float, floor: float, shot: float, ref: flo
 @NJIT_NORC
 def likeliest(yk: float, ak: float, bk: float, floor: float, shot: float, ref: float,
               p: float, l0: float, l1: float, log_len: np.ndarray, guess: int,
-              row: np.ndarray) -> int:  # pragma: no cover - compiled
+              row: np.ndarray, beta: float) -> int:  # pragma: no cover - compiled
     """:func:`call_of`, the same answer, without its logarithm per length when one length
     clearly wins: the log-posterior of ``guess`` is computed as there (the same bits), every
     other length's bounded above by its residual term plus ``−log(floor)/2`` (its variance is
     at least ``floor``); when ``guess`` leads every bound by more than :func:`call_of`'s tie
     margin, :func:`call_of` would return it. Else :func:`call_of` decides."""
     if not floor > 0.0:
-        return call_of(yk, ak, bk, floor, shot, ref, p, log_len, row)
+        return call_of(yk, ak, bk, floor, shot, ref, p, log_len, row, beta)
     cap = -0.5 * math.log(floor)
     mean = ak * guess + bk
+    if guess == 0:
+        mean += beta
     mp = max(mean, 0.0)
     var = (floor + shot * mp + ref * mp * mp) * 1.0
     d = yk - mean
@@ -274,6 +284,8 @@ def likeliest(yk: float, ak: float, bk: float, floor: float, shot: float, ref: f
         if h == guess:
             continue
         mean = ak * h + bk
+        if h == 0:
+            mean += beta
         mp = max(mean, 0.0)
         var = (floor + shot * mp + ref * mp * mp) * 1.0
         d = yk - mean
@@ -281,14 +293,14 @@ def likeliest(yk: float, ak: float, bk: float, floor: float, shot: float, ref: f
         second = max(second, ub)
     if lg - second > 1e-12 * max(1.0, abs(lg)):
         return guess
-    return call_of(yk, ak, bk, floor, shot, ref, p, log_len, row)
+    return call_of(yk, ak, bk, floor, shot, ref, p, log_len, row, beta)
 
 
 @NJIT
 def dephase_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droop: float,
                    start: np.ndarray, comp: np.ndarray, log_len: np.ndarray, floor: float,
-                   shot: float, ref: float, n_score: int, n_iter: int, window: int
-                   ) -> tuple:  # pragma: no cover - compiled
+                   shot: float, ref: float, n_score: int, n_iter: int, window: int,
+                   beta: float) -> tuple:  # pragma: no cover - compiled
     """The sweep of :func:`chiptwin.detection.reads.dephase`: returns (calls, nll).
 
     Each step re-predicts the flowgram only from the first flow the last change can reach, and
@@ -329,7 +341,7 @@ def dephase_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, dro
         kt = min(k, k_prior)
         if kt < n_score:
             terms_tab(y, signal, calls, flows, allow, l0, l1, floor, shot, ref, log_len, kt,
-                      n_score, cum[kt], cum)
+                      n_score, cum[kt], cum, beta)
         nll = cum[n_score]
         if nll < best_nll:
             best_nll = nll
@@ -338,7 +350,8 @@ def dephase_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, dro
         for j in range(kt, n):
             x, m = flows[j], allow[j]
             if likeliest(y[j], a[j], signal[j] - a[j] * calls[j], floor, shot, ref, p_pos[j],
-                         l0[x, m], l1[x, m], log_len, min(calls[j], top), row) != calls[j]:
+                         l0[x, m], l1[x, m], log_len, min(calls[j], top), row,
+                         beta) != calls[j]:
                 first = j
                 break
         if first < 0:
@@ -348,7 +361,7 @@ def dephase_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, dro
             x, m = flows[j], allow[j]
             new[j - first] = likeliest(y[j], a[j], signal[j] - a[j] * calls[j], floor, shot,
                                        ref, p_pos[j], l0[x, m], l1[x, m], log_len,
-                                       min(calls[j], top), row)
+                                       min(calls[j], top), row, beta)
         d_new = calls[:first].sum()
         k_model = first_reaching(reach, d_new)
         # the sweep's calls may put one base in two flows' runs: the rows of a run that went on
@@ -363,8 +376,8 @@ def dephase_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, dro
 @NJIT
 def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droop: float,
                   start: np.ndarray, comp: np.ndarray, log_len: np.ndarray, floor: float,
-                  shot: float, ref: float, n_try: int, z_min: float, rounds: int
-                  ) -> np.ndarray:  # pragma: no cover - compiled
+                  shot: float, ref: float, n_try: int, z_min: float, rounds: int,
+                  beta: float) -> np.ndarray:  # pragma: no cover - compiled
     """Hill-climb the whole read's likelihood: at the ``n_try`` flows with the largest
     standardised residuals (above ``z_min``), try one base more or less (the template's flow
     program re-derived) and keep the first change that lowers the negative log-likelihood;
@@ -389,7 +402,7 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
     p_tab, l0, l1 = prior_table(comp)
     prior_from(calls, flows, p_tab, 0, n, full, allow, p_pos)
     nll = terms_tab(y, signal, calls, flows, allow, l0, l1, floor, shot, ref, log_len, 0, n,
-                    0.0, cum)
+                    0.0, cum, beta)
     lb = least_term(floor)
     # the candidates' template and run table, kept equal to the current calls' below ``dirty``
     # so that a candidate rewrites only what it changes (:func:`run_rows_from`)
@@ -401,14 +414,15 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
     dirty = n_b + 1
     cs = np.zeros(n + 1, dtype=np.int64)  # cs[k]: template position of flow k's run
     cs[1:] = np.cumsum(calls)
-    z = np.empty(n)
+    z, light = np.empty(n), np.empty(n)
     lip, pre, g = np.empty(n + 1), np.zeros((SPANS.size, n + 1)), np.empty((SPANS.size, n))
-    slopes_from(y, signal, floor, shot, ref, 0, g)
     k_new = 0  # the flows from here on have new light since the last round
     for _ in range(rounds):
-        for k in range(k_new, n):
-            mp = max(signal[k], 0.0)
-            z[k] = abs(y[k] - signal[k]) / math.sqrt(floor + shot * mp + ref * mp * mp)
+        for k in range(k_new, n):  # each flow's mean: its signal, empty flows' light added
+            light[k] = signal[k] + beta if calls[k] == 0 else signal[k]
+            mp = max(light[k], 0.0)
+            z[k] = abs(y[k] - light[k]) / math.sqrt(floor + shot * mp + ref * mp * mp)
+        slopes_from(y, light, floor, shot, ref, k_new, g)
         order = _largest_first(z, z_min, n_try)
         prefix_bounds(g, pre, lip, k_new)
         c_max = calls.max()  # the current template's longest run
@@ -431,7 +445,7 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
                 kc = _score_from(y, flows, eps, lam, droop, t_run, p_tab, l0, l1, log_len,
                                  floor, shot, ref, k0, nll, lb, base, trial, allow, t_allow,
                                  t_pos, cum, t_cum, top, k, cs[k], calls[k], h, step, lip,
-                                 pre)
+                                 pre, beta)
                 if kc >= 0:
                     _keep(base, trial, kc, n, allow, t_allow, p_pos, t_pos, cum, t_cum)
                     nll = cum[n]
@@ -440,7 +454,6 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
                     b_tmpl[:n_b] = t_tmpl[:n_b]
                     dirty = n_b + 1
                     cs[1:] = np.cumsum(calls)
-                    slopes_from(y, signal, floor, shot, ref, kc, g)
                     k_new = kc
                     break
             if kept >= 0:
@@ -453,7 +466,7 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
 @NJIT_NORC
 def _score_from(y, flows, eps, lam, droop, run, p_tab, l0, l1, log_len, floor, shot, ref, k0,
                 nll, lb, base, trial, allow, t_allow, t_pos, cum, t_cum, top, k_run, d0, h_old,
-                h, step, lip, pre):  # pragma: no cover
+                h, step, lip, pre, beta):  # pragma: no cover
     """Score a candidate template (its ``run`` table) into ``trial`` from the checkpoint before
     flow ``k0``, a checkpoint's worth of flows at a time; returns that checkpoint's flow when
     the candidate beats ``nll`` by more than 1e-9 (and calls no run beyond ``top``), else −1,
@@ -483,7 +496,7 @@ def _score_from(y, flows, eps, lam, droop, run, p_tab, l0, l1, log_len, floor, s
                 return -1
         mask = prior_from(t_calls, flows, p_tab, k, ke, mask, t_allow, t_pos)
         total = terms_tab(y, t_signal, t_calls, flows, t_allow, l0, l1, floor, shot, ref,
-                          log_len, k, ke, total, t_cum)
+                          log_len, k, ke, total, t_cum, beta)
         left = (n - ke) * lb if ke < n else 0.0
         slack = 1e-6 * (abs(total) + abs(nll) + abs(left) + 1.0)  # far above rounding error
         if total + left - slack >= nll - 1e-9:

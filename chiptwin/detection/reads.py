@@ -18,9 +18,11 @@ Two callers, both in flow space on normalised flow values (a 1-mer reads ≈ 1):
     from the read itself (:func:`estimate_phasing`: coordinate descent over grids, each point
     scored by the likelihood of the read's first 96, then 192 flows, each parameter set above 0
     charged the Bayesian information criterion, and kept only when the whole read says so:
-    :func:`keep_phasing`), and the read's 1-mer level from its called flows (:func:`rescale`).
-    454: ε 0.1–0.3 %, λ 1–2 % (Margulies et al., Nature 437:376, 2005). The last
-    :data:`TAIL_FLOWS` flows are left uncalled.
+    :func:`keep_phasing`), with the light an empty flow reads besides the leak, β
+    (:data:`EMPTY_LIGHT_GRID`: the mean of ``h = 0`` is ``b_k + β``), and the read's 1-mer
+    level from its called flows after each of the two fits (:func:`rescale`). 454: ε 0.1–0.3 %,
+    λ 1–2 % (Margulies et al., Nature 437:376, 2005). The last :data:`TAIL_FLOWS` flows are
+    left uncalled.
 
 Quality values (phred, Ewing & Green, Genome Res. 8:186, 1998: ``Q = −10·log10 P(error)``)
 come from the posterior of each flow's call under the noise the twin predicts for that flow
@@ -101,6 +103,7 @@ class Read:
     gain: float = 1.0  # the read's 1-mer level re-estimated, relative to the key's
     corrected: NDArray[np.float64] | None = None  # phase-corrected flow values (a·h + b → h)
     noise: FlowNoise | None = None  # the noise the posterior was computed under
+    empty_light: float = 0.0  # the light of an empty flow estimated (1-mers; EMPTY_LIGHT_GRID)
 
     def bases(self, flow_order: str) -> str:
         letters = np.frombuffer(flow_order.encode("ascii"), dtype=np.uint8)
@@ -177,15 +180,16 @@ class Prior:
 
 
 def posterior(y: np.ndarray, a: np.ndarray, b: np.ndarray, noise: FlowNoise,
-              p_pos: np.ndarray, log_len: np.ndarray, inflate: np.ndarray | None = None
-              ) -> np.ndarray:
+              p_pos: np.ndarray, log_len: np.ndarray, inflate: np.ndarray | None = None,
+              beta: float = 0.0) -> np.ndarray:
     """P(h | y_k) for h = 0 … MAX_CALL, per flow: shape (n_flows, MAX_CALL + 1); the
-    variance of flow ``k`` is multiplied by ``inflate[k]`` (default 1)."""
+    variance of flow ``k`` is multiplied by ``inflate[k]`` (default 1), and ``h = 0``'s mean
+    carries the empty-flow light ``beta``."""
     y = np.asarray(y, dtype=np.float64)
     inflate = np.ones(y.size) if inflate is None else np.asarray(inflate, dtype=np.float64)
     return posterior_kernel(y, np.asarray(a, dtype=np.float64),
                             np.asarray(b, dtype=np.float64), noise.floor, noise.shot, noise.ref,
-                            np.asarray(p_pos, dtype=np.float64), log_len, inflate)
+                            np.asarray(p_pos, dtype=np.float64), log_len, inflate, float(beta))
 
 
 #: Half-width of the window over which :func:`local_inflation` averages the residuals (flows).
@@ -219,7 +223,7 @@ WINDOW = 24
 
 def dephase(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, eps: float, lam: float,
             droop: float, start: np.ndarray, prior: Prior, n_iter: int | None = None,
-            n_score: int | None = None) -> tuple[np.ndarray, float]:
+            n_score: int | None = None, beta: float = 0.0) -> tuple[np.ndarray, float]:
     """Re-call flows from the model of the current calls, sweeping left to right.
 
     Each step predicts the flowgram of the current calls, re-calls every flow from its
@@ -229,14 +233,14 @@ def dephase(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, eps: float, lam:
     share is low, the sweep can cycle between nearby call sets.
 
     Returns the calls and their negative log-likelihood over the first ``n_score`` flows (all
-    by default).
+    by default); ``beta`` is the light of an empty flow (:data:`EMPTY_LIGHT_GRID`).
     """
     n_score = y.size if n_score is None else n_score
     n_iter = 3 * (y.size // WINDOW + 1) if n_iter is None else n_iter
     calls, nll = dephase_kernel(
         np.ascontiguousarray(y, dtype=np.float64), flows, float(eps), float(lam), float(droop),
         start.astype(np.int64), prior.comp, prior.log_len, noise.floor, noise.shot, noise.ref,
-        int(n_score), int(n_iter), WINDOW)
+        int(n_score), int(n_iter), WINDOW, float(beta))
     return calls, float(nll)
 
 
@@ -250,6 +254,13 @@ SCORE_STEPS = 4
 
 DROOP_GRID = np.array([0.0, 0.0005, 0.001, 0.002, 0.004, 0.008, 0.016])
 """The droop values the search walks (per flow)."""
+
+EMPTY_LIGHT_GRID = np.array([0.0, 0.02, 0.04, 0.06, 0.08, 0.1, 0.12, 0.15, 0.2, 0.3])
+"""The empty-flow light β the search walks (1-mers): what a flow that extends nothing reads
+besides the phasing leak. 454's phase-corrected values leave empty flows near +0.09 (GS FLX
+0.088 in the PyroNoise profiles, Quince et al., Nature Methods 6:639, 2009) while 1- to 4-mers
+sit within 0.013 of their length; a caller without it reads that light as carry-forward (λ 1.5 %
+for the twin's 1 % under the 454 FLX chemistry) and scales the read 2.4 % high."""
 
 
 def _descend(grid: np.ndarray, start: float, score) -> float:
@@ -277,13 +288,15 @@ PHASING_PENALTY = 0.5
 
 
 def estimate_phasing(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: np.ndarray,
-                     prior: Prior, n_fit: int, start: tuple[float, float, float]
-                     ) -> tuple[float, float, float]:
-    """(ε, λ, δ) by coordinate descent over :data:`LAMBDA_GRID`, :data:`EPS_GRID` and
-    :data:`DROOP_GRID` (then λ again), each a local walk from the current value; each point is
-    scored by the likelihood of the first ``n_fit`` flows after re-calling them
-    (:data:`SCORE_STEPS` dephasing steps from ``calls``), plus :data:`PHASING_PENALTY` per
-    parameter above 0."""
+                     prior: Prior, n_fit: int, start: tuple[float, float, float, float],
+                     empty_light: bool = True) -> tuple[float, float, float, float]:
+    """(ε, λ, δ, β) by coordinate descent over :data:`EMPTY_LIGHT_GRID`, :data:`LAMBDA_GRID`,
+    :data:`EPS_GRID` and :data:`DROOP_GRID`, then λ and β again, each a local walk from the
+    current value; each point is scored by the likelihood of the first ``n_fit`` flows after
+    re-calling them (:data:`SCORE_STEPS` dephasing steps from ``calls``), plus
+    :data:`PHASING_PENALTY` per parameter above 0. β is walked after the phasing and again after
+    λ's second walk (the empty flows' own light, left to λ, reads as carry-forward); without
+    ``empty_light`` it stays at its start."""
     yy, ff, cc = y[:n_fit], flows[:n_fit], calls[:n_fit]
     par = list(start)
     cost = PHASING_PENALTY * np.log(max(n_fit, 1))
@@ -291,15 +304,18 @@ def estimate_phasing(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: 
     def score(i: int, value: float) -> float:
         trial = list(par)
         trial[i] = value
-        return (dephase(yy, ff, noise, *trial, cc, prior, n_iter=SCORE_STEPS)[1]
-                + cost * sum(p > 0 for p in trial))
+        return (dephase(yy, ff, noise, *trial[:3], cc, prior, n_iter=SCORE_STEPS,
+                        beta=trial[3])[1] + cost * sum(p > 0 for p in trial))
 
-    for i, grid in ((1, LAMBDA_GRID), (0, EPS_GRID), (2, DROOP_GRID), (1, LAMBDA_GRID)):
-        par[i] = _descend(grid, par[i], lambda v, i=i: score(i, v))
-    return par[0], par[1], par[2]
+    for i, grid in ((1, LAMBDA_GRID), (0, EPS_GRID), (2, DROOP_GRID), (3, EMPTY_LIGHT_GRID),
+                    (1, LAMBDA_GRID), (3, EMPTY_LIGHT_GRID)):
+        if i != 3 or empty_light:
+            par[i] = _descend(grid, par[i], lambda v, i=i: score(i, v))
+    return par[0], par[1], par[2], par[3]
 
 
-def call_dephased(y: np.ndarray, flows: np.ndarray, noise: FlowNoise) -> Read:
+def call_dephased(y: np.ndarray, flows: np.ndarray, noise: FlowNoise,
+                  empty_light: bool = True) -> Read:
     """Call a read with ε, λ and δ estimated from it (module docstring), its last
     :data:`TAIL_FLOWS` flows left uncalled.
 
@@ -311,80 +327,92 @@ def call_dephased(y: np.ndarray, flows: np.ndarray, noise: FlowNoise) -> Read:
         Base index (ACGT) of each flow.
     noise : FlowNoise
         The twin's predicted noise of this read's flow values.
+    empty_light : bool
+        Estimate the light of an empty flow (:data:`EMPTY_LIGHT_GRID`); off for flowgrams a
+        vendor already phase-corrected, whose 0-mer level is the vendor's.
     """
-    return end_read(read_model(y, flows, noise))
+    return end_read(read_model(y, flows, noise, empty_light))
 
 
-def read_model(y: np.ndarray, flows: np.ndarray, noise: FlowNoise) -> Read:
+def read_model(y: np.ndarray, flows: np.ndarray, noise: FlowNoise,
+               empty_light: bool = True) -> Read:
     """The whole read's calls, phasing and posterior, every flow called: what
     :func:`call_dephased` reads and the posterior both callers' qualities come from."""
     calls = np.clip(np.rint(y), 0, MAX_CALL).astype(np.int64)
     prior = Prior.of(calls, flows)
-    par = (0.0, 0.0, 0.0)
+    est = (0.0, 0.0, 0.0, 0.0)  # ε, λ, δ and the empty-flow light β
     gain = 1.0
     for i, n_fit in enumerate(FIT_FLOWS):
-        par = estimate_phasing(y, flows, noise, calls, prior, min(n_fit, y.size), par)
+        est = estimate_phasing(y, flows, noise, calls, prior, min(n_fit, y.size), est,
+                               empty_light)
         m = min(FIT_FLOWS[i + 1], y.size) if i + 1 < len(FIT_FLOWS) else y.size
-        calls[:m] = dephase(y[:m], flows[:m], noise, *par, calls[:m], prior)[0]
+        calls[:m] = dephase(y[:m], flows[:m], noise, *est[:3], calls[:m], prior,
+                            beta=est[3])[0]
         prior = Prior.of(calls, flows)
-        if i == 0:
-            y, noise, gain = rescale(y, flows, noise, calls, par, min(n_fit, y.size))
-    calls = polish(y, flows, noise, par, calls, prior)
-    calls, par = keep_phasing(y, flows, noise, calls, par, prior)
+        # the read's 1-mer level from the flows just fitted, again once the longer prefix has
+        # settled the phasing (a spurious ε on the first 96 flows scales the read 2 % high)
+        y, noise, g = rescale(y, flows, noise, calls, est[:3], min(n_fit, y.size))
+        gain *= g
+    par, beta = est[:3], est[3]
+    calls = polish(y, flows, noise, par, calls, prior, beta)
+    calls, par = keep_phasing(y, flows, noise, calls, par, prior, beta)
     signal, a, _ = phase_model(calls, flows, *par)
     corrected = (y - (signal - a * calls)) / np.maximum(a, 1e-3)
-    return Read(calls, final_posterior(y, flows, noise, calls, par), *par, gain=gain,
-                corrected=corrected, noise=noise)
+    return Read(calls, final_posterior(y, flows, noise, calls, par, beta), *par, gain=gain,
+                corrected=corrected, noise=noise, empty_light=beta)
 
 
 def read_nll(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: np.ndarray,
-             par: tuple[float, float, float], prior: Prior) -> float:
-    """Negative log-posterior of a whole read's calls under phasing ``par``."""
+             par: tuple[float, float, float], prior: Prior, beta: float = 0.0) -> float:
+    """Negative log-posterior of a whole read's calls under phasing ``par`` and empty-flow
+    light ``beta``."""
     return float(_score(np.ascontiguousarray(y, dtype=np.float64), flows,
                         calls.astype(np.int64), *par, prior.comp, prior.log_len, noise.floor,
-                        noise.shot, noise.ref)[0])
+                        noise.shot, noise.ref, float(beta))[0])
 
 
 def keep_phasing(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: np.ndarray,
-                 par: tuple[float, float, float], prior: Prior
+                 par: tuple[float, float, float], prior: Prior, beta: float = 0.0
                  ) -> tuple[np.ndarray, tuple[float, float, float]]:
     """The phasing estimated on the read's first flows, kept only when the whole read says so:
     the read called again without phasing (the sweep and the hill climb from the rounded
     values) and the two call sets scored over every flow, each non-zero parameter charged
     :data:`PHASING_PENALTY`. A flowgram already phase-corrected shows its first flows' noise as
     a little ε or λ (454's Titanium values: ε 0.1–0.2 % on 21 of 24 reads), which, carried over
-    800 flows, miscalls the read's far end; a phased read's far end needs it. The flat re-call
-    is skipped when no call set without phasing could win (:func:`flat_floor`): on
-    ``pyro_long_read`` every read, a ninth of the caller's time."""
+    800 flows, miscalls the read's far end; a phased read's far end needs it. Both keep the
+    empty-flow light ``beta``. The flat re-call is skipped when no call set without phasing
+    could win (:func:`flat_floor`): on ``pyro_long_read`` every read, a ninth of the caller's
+    time."""
     if not any(par):
         return calls, par
     cost = PHASING_PENALTY * np.log(max(y.size, 1)) * sum(p > 0 for p in par)
-    phased = read_nll(y, flows, noise, calls, par, prior) + cost
-    if flat_floor(y, noise) > phased + 1e-9 * (abs(phased) + 1.0):
+    phased = read_nll(y, flows, noise, calls, par, prior, beta) + cost
+    if flat_floor(y, noise, beta) > phased + 1e-9 * (abs(phased) + 1.0):
         return calls, par  # no call set without phasing could score better
     flat = dephase(y, flows, noise, 0.0, 0.0, 0.0,
-                   np.clip(np.rint(y), 0, MAX_CALL).astype(np.int64), prior)[0]
-    flat = polish(y, flows, noise, (0.0, 0.0, 0.0), flat, prior)
-    if read_nll(y, flows, noise, flat, (0.0, 0.0, 0.0), prior) <= phased:
+                   np.clip(np.rint(y), 0, MAX_CALL).astype(np.int64), prior, beta=beta)[0]
+    flat = polish(y, flows, noise, (0.0, 0.0, 0.0), flat, prior, beta)
+    if read_nll(y, flows, noise, flat, (0.0, 0.0, 0.0), prior, beta) <= phased:
         return flat, (0.0, 0.0, 0.0)
     return calls, par
 
 
-def flat_floor(y: np.ndarray, noise: FlowNoise) -> float:
+def flat_floor(y: np.ndarray, noise: FlowNoise, beta: float = 0.0) -> float:
     """The least negative log-posterior any call set scores without phasing (ε = λ = δ = 0):
-    each flow's light is then a whole number ``s`` of bases, and its term
-    ``(y − s)²/2v(s) + log v(s)/2`` rises with ``s`` past ``y`` (``s·v′(s) < 2v(s)`` for
-    ``v = floor + shot·s + ref·s²``), so each flow's least is among ``s = 0 … ⌈y⌉`` (``y``
-    taken as 0 where it is negative, which only lowers the term); the prior adds at least
-    ``−log(1 − P_POS_MIN)`` a flow. On a phased read the leak makes most flows' light fall
-    between whole numbers and this alone exceeds the phased calls' score, so the flat re-call
-    of :func:`keep_phasing` (its sweep and hill climb) need not run."""
+    each flow's light is then a whole number ``s`` of bases (``beta``, the empty-flow light,
+    for ``s = 0``), and its term ``(y − s)²/2v(s) + log v(s)/2`` rises with ``s`` past ``y``
+    (``s·v′(s) < 2v(s)`` for ``v = floor + shot·s + ref·s²``), so each flow's least is among
+    ``s = 0 … ⌈y⌉`` (``y`` taken as 0 where it is negative, which only lowers the term); the
+    prior adds at least ``−log(1 − P_POS_MIN)`` a flow. On a phased read the leak makes most
+    flows' light fall between whole numbers and this alone exceeds the phased calls' score, so
+    the flat re-call of :func:`keep_phasing` (its sweep and hill climb) need not run."""
     yy = np.maximum(np.asarray(y, dtype=np.float64), 0.0)
     s = np.arange(int(np.ceil(yy.max(initial=0.0))) + 1, dtype=np.float64)
+    s[0] = beta
     v = noise.floor + noise.shot * s + noise.ref * s * s
     term = 0.5 * (yy[:, None] - s[None, :]) ** 2 / v + 0.5 * np.log(v)
     # s above ⌈y⌉ is never the least (the term rises there)
-    term = np.where(s[None, :] <= np.ceil(yy)[:, None], term, np.inf)
+    term = np.where(np.arange(s.size)[None, :] <= np.ceil(yy)[:, None], term, np.inf)
     return float(term.min(axis=1).sum() - yy.size * np.log(1.0 - P_POS_MIN))
 
 
@@ -424,7 +452,7 @@ def end_read(read: Read) -> Read:
     post[keep:] = 0.0
     post[keep:, 0] = 1.0
     return Read(calls, post, read.eps, read.lam, read.droop, keep, read.gain, read.corrected,
-                read.noise)
+                read.noise, read.empty_light)
 
 
 #: :func:`polish`: flows tried per round, the standardised residual below which a flow is left
@@ -433,14 +461,15 @@ POLISH_TRY, POLISH_Z, POLISH_ROUNDS = 24, 3.0, 200
 
 
 def polish(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, par: tuple[float, float, float],
-           calls: np.ndarray, prior: Prior) -> np.ndarray:
+           calls: np.ndarray, prior: Prior, beta: float = 0.0) -> np.ndarray:
     """Hill-climb the whole read's likelihood from the sweep's calls, one base at a time where
     the residuals are largest: far into a read, where fewer than half the strands are in phase,
     the sweep can settle on a call set that explains a base by the leading strands' light; the
-    whole-read likelihood tells them apart."""
+    whole-read likelihood tells them apart. ``beta``: the empty-flow light."""
     return polish_kernel(np.ascontiguousarray(y, dtype=np.float64), flows, *par,
                          calls.astype(np.int64), prior.comp, prior.log_len, noise.floor,
-                         noise.shot, noise.ref, POLISH_TRY, POLISH_Z, POLISH_ROUNDS)
+                         noise.shot, noise.ref, POLISH_TRY, POLISH_Z, POLISH_ROUNDS,
+                         float(beta))
 
 
 #: Factor on every flow's predicted variance in the posterior the qualities come from: the
@@ -458,13 +487,13 @@ def _neighbours(grid: np.ndarray, value: float) -> list[float]:
 
 
 def final_posterior(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: np.ndarray,
-                    par: tuple[float, float, float]) -> np.ndarray:
+                    par: tuple[float, float, float], beta: float = 0.0) -> np.ndarray:
     """The posterior the qualities come from: the model of the final calls and their prior,
     averaged over the phasing estimate's neighbours on the search grids (ε, λ, δ one step either
     way, weighted by the read's likelihood under each: the estimate's own uncertainty), with the
     variance widened where the read's residuals exceed the predicted noise
     (:func:`local_inflation`) and by :data:`MODEL_INFLATION`; neighbours weighing less than
-    :data:`MIN_WEIGHT` are left out."""
+    :data:`MIN_WEIGHT` are left out. Empty flows carry the empty-flow light ``beta``."""
     prior = Prior.of(calls, flows)
     calls = calls.astype(np.int64)
     grid = [np.array(_neighbours(g, v)) for g, v in zip((EPS_GRID, LAMBDA_GRID, DROOP_GRID), par,
@@ -472,7 +501,7 @@ def final_posterior(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: n
     return mixed_posterior(np.ascontiguousarray(y, dtype=np.float64), template_of(calls, flows),
                            flows, calls, *grid, noise.floor, noise.shot, noise.ref,
                            prior.p_pos(calls, flows), prior.log_len, RESIDUAL_HALF_WINDOW,
-                           MODEL_INFLATION, MIN_WEIGHT)
+                           MODEL_INFLATION, MIN_WEIGHT, float(beta))
 
 
 #: The least weight a phasing neighbour's posterior is mixed in with (:func:`final_posterior`):
@@ -481,7 +510,8 @@ def final_posterior(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: n
 MIN_WEIGHT = 1e-12
 
 
-def call_rounded(y: np.ndarray, flows: np.ndarray, noise: FlowNoise) -> Read:
+def call_rounded(y: np.ndarray, flows: np.ndarray, noise: FlowNoise,
+                 empty_light: bool = True) -> Read:
     """Today's caller (:func:`chiptwin.kinetics.pyro.call_sequence`: round half up, clipped to
     0 … :data:`MAX_CALL`), its calls not dephased, with the qualities of those calls under the
     same posterior as the dephasing caller's (:func:`read_model`): the phasing the rounding
@@ -489,12 +519,12 @@ def call_rounded(y: np.ndarray, flows: np.ndarray, noise: FlowNoise) -> Read:
     Q30 (it was, from a posterior without phasing: on reads of ε 0.2 %, λ 1 %, droop 0.1 %,
     bases stated Q35+ were wrong 9 % of the time)."""
     calls = np.floor(np.clip(y, 0.0, MAX_CALL) + 0.5).astype(np.int64)
-    model = read_model(y, flows, noise)
+    model = read_model(y, flows, noise, empty_light)
     post = model.posterior.copy()
     tail = slice(max(y.size - TAIL_FLOWS, 0), None)
     post[tail] = (1.0 - TAIL_DOUBT) * post[tail] + TAIL_DOUBT / post.shape[1]
     return Read(calls, post, model.eps, model.lam, model.droop, gain=model.gain,
-                noise=model.noise)
+                noise=model.noise, empty_light=model.empty_light)
 
 
 #: Share of a flat distribution mixed into the posterior of the last :data:`TAIL_FLOWS` flows

@@ -32,7 +32,7 @@ BAD = [
     ("flows beyond the schema", [("n_flows = 400", "n_flows = 20000")], "assay.n_flows",
      "10000"),
     ("flows beyond the time budget", [("[run]\n", "[run]\nmax_wall_s = 5.0\n")],
-     "run.max_wall_s", "dephase caller"),
+     "run.max_wall_s", "the run is estimated at"),
     ("droop at the cascade level", [('kinetics = "closed_form"', 'kinetics = "cascade"')],
      "assay.droop_per_flow", "cascade"),
     ("unknown caller", [('caller = "dephase"', 'caller = "viterbi"')], "assay.caller",

@@ -108,11 +108,12 @@ def phase_bases(tmpl: np.ndarray, flows: np.ndarray, eps: float,
 @NJIT
 def _score(y: np.ndarray, flows: np.ndarray, calls: np.ndarray, eps: float, lam: float,
            droop: float, comp: np.ndarray, log_len: np.ndarray, floor: float, shot: float,
-           ref: float) -> tuple:  # pragma: no cover - compiled
+           ref: float, beta: float) -> tuple:  # pragma: no cover - compiled
     """(nll, signal, ideal) of a call set, on the model above."""
     signal, _, ideal = phase_flows(template_of(calls, flows), flows, eps, lam, droop)
     p_pos = context_prior(ideal, flows, comp, comp.size)
-    return nll_kernel(y, signal, ideal, floor, shot, ref, p_pos, log_len, y.size), signal, ideal
+    return (nll_kernel(y, signal, ideal, floor, shot, ref, p_pos, log_len, y.size, beta),
+            signal, ideal)
 
 
 
@@ -120,7 +121,7 @@ def _score(y: np.ndarray, flows: np.ndarray, calls: np.ndarray, eps: float, lam:
 def sweep_with_posterior(y: np.ndarray, flows: np.ndarray, eps: float, lam: float,
                          droop: float, start: np.ndarray, comp: np.ndarray, log_len: np.ndarray,
                          floor: float, shot: float, ref: float, n_score: int, n_iter: int,
-                         window: int) -> tuple:  # pragma: no cover - compiled
+                         window: int, beta: float) -> tuple:  # pragma: no cover - compiled
     """The sweep of :func:`chiptwin.detection.reads.dephase`: returns (calls, post, nll)."""
     calls = start.copy()
     best_calls = calls.copy()
@@ -131,8 +132,8 @@ def sweep_with_posterior(y: np.ndarray, flows: np.ndarray, eps: float, lam: floa
         signal, a, _ = phase_flows(template_of(calls, flows), flows, eps, lam, droop)
         p_pos = context_prior(calls, flows, comp, comp.size)
         post = posterior_kernel(y, a, signal - a * calls, floor, shot, ref, p_pos, log_len,
-                                ones)
-        nll = nll_kernel(y, signal, calls, floor, shot, ref, p_pos, log_len, n_score)
+                                ones, beta)
+        nll = nll_kernel(y, signal, calls, floor, shot, ref, p_pos, log_len, n_score, beta)
         if nll < best_nll:
             best_nll = nll
             best_calls[:] = calls
@@ -158,22 +159,23 @@ def dephase_kernel(*args) -> tuple:
 @NJIT
 def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droop: float,
                   start: np.ndarray, comp: np.ndarray, log_len: np.ndarray, floor: float,
-                  shot: float, ref: float, n_try: int, z_min: float, rounds: int
-                  ) -> np.ndarray:  # pragma: no cover - compiled
+                  shot: float, ref: float, n_try: int, z_min: float, rounds: int,
+                  beta: float) -> np.ndarray:  # pragma: no cover - compiled
     """Hill-climb the whole read's likelihood: at the ``n_try`` flows with the largest
     standardised residuals (above ``z_min``), try one base more or less (the template's flow
     program re-derived) and keep the first change that lowers the negative log-likelihood;
     repeat up to ``rounds`` times."""
     top = log_len.size - 1
     nll, signal, calls = _score(y, flows, start, eps, lam, droop, comp, log_len, floor, shot,
-                                ref)
+                                ref, beta)
     if calls.max() > top:  # the start's template merges runs beyond the caller's range
         return start
     for _ in range(rounds):
         z = np.empty(y.size)
         for k in range(y.size):
-            mp = max(signal[k], 0.0)
-            z[k] = abs(y[k] - signal[k]) / math.sqrt(floor + shot * mp + ref * mp * mp)
+            sk = signal[k] + beta if calls[k] == 0 else signal[k]
+            mp = max(sk, 0.0)
+            z[k] = abs(y[k] - sk) / math.sqrt(floor + shot * mp + ref * mp * mp)
         order = np.argsort(-z)
         improved = False
         for i in range(min(n_try, y.size)):
@@ -187,7 +189,7 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
                 trial = calls.copy()
                 trial[k] = h
                 t_nll, t_signal, t_ideal = _score(y, flows, trial, eps, lam, droop, comp,
-                                                  log_len, floor, shot, ref)
+                                                  log_len, floor, shot, ref, beta)
                 if t_nll < nll - 1e-9 and t_ideal.max() <= top:
                     nll, signal, calls = t_nll, t_signal, t_ideal
                     improved = True
@@ -200,7 +202,7 @@ def polish_kernel(y: np.ndarray, flows: np.ndarray, eps: float, lam: float, droo
 
 
 def final_posterior(y: np.ndarray, flows: np.ndarray, noise, calls: np.ndarray,
-                    par: tuple[float, float, float]) -> np.ndarray:
+                    par: tuple[float, float, float], beta: float = 0.0) -> np.ndarray:
     """:func:`chiptwin.detection.reads.final_posterior` as first written: every one of the 27
     neighbours' flowgrams predicted whole and its posterior computed, whatever its weight."""
     from chiptwin.detection import reads
@@ -213,17 +215,18 @@ def final_posterior(y: np.ndarray, flows: np.ndarray, noise, calls: np.ndarray,
             for d in reads._neighbours(reads.DROOP_GRID, par[2]):
                 signal, a, _ = phase_flows(template_of(calls.astype(np.int64), flows),
                                            flows, e, lm, d)
-                inflate = reads.local_inflation(y, signal, noise) * reads.MODEL_INFLATION
+                light = signal + np.where(calls == 0, beta, 0.0)
+                inflate = reads.local_inflation(y, light, noise) * reads.MODEL_INFLATION
                 posts.append(reads.posterior(y, a, signal - a * calls, noise, p_pos,
-                                             prior.log_len, inflate))
-                v = noise.var(signal) * inflate
-                logw.append(-0.5 * float(np.sum((y - signal) ** 2 / v + np.log(v))))
+                                             prior.log_len, inflate, beta))
+                v = noise.var(light) * inflate
+                logw.append(-0.5 * float(np.sum((y - light) ** 2 / v + np.log(v))))
     w = np.exp(np.array(logw) - max(logw))
     return np.tensordot(w / w.sum(), np.array(posts), axes=1)
 
 
 def keep_phasing(y: np.ndarray, flows: np.ndarray, noise, calls: np.ndarray,
-                 par: tuple[float, float, float], prior) -> tuple:
+                 par: tuple[float, float, float], prior, beta: float = 0.0) -> tuple:
     """:func:`chiptwin.detection.reads.keep_phasing` as first written: the read called again
     without phasing every time, whether or not such calls could score better."""
     from chiptwin.detection import reads
@@ -231,11 +234,12 @@ def keep_phasing(y: np.ndarray, flows: np.ndarray, noise, calls: np.ndarray,
     if not any(par):
         return calls, par
     cost = reads.PHASING_PENALTY * np.log(max(y.size, 1)) * sum(p > 0 for p in par)
-    phased = reads.read_nll(y, flows, noise, calls, par, prior) + cost
+    phased = reads.read_nll(y, flows, noise, calls, par, prior, beta) + cost
     flat = reads.dephase(y, flows, noise, 0.0, 0.0, 0.0,
-                         np.clip(np.rint(y), 0, reads.MAX_CALL).astype(np.int64), prior)[0]
-    flat = reads.polish(y, flows, noise, (0.0, 0.0, 0.0), flat, prior)
-    if reads.read_nll(y, flows, noise, flat, (0.0, 0.0, 0.0), prior) <= phased:
+                         np.clip(np.rint(y), 0, reads.MAX_CALL).astype(np.int64), prior,
+                         beta=beta)[0]
+    flat = reads.polish(y, flows, noise, (0.0, 0.0, 0.0), flat, prior, beta)
+    if reads.read_nll(y, flows, noise, flat, (0.0, 0.0, 0.0), prior, beta) <= phased:
         return flat, (0.0, 0.0, 0.0)
     return calls, par
 

@@ -25,7 +25,7 @@ from tests.detection.test_caller_equivalence import _phased_read
 def _terms(y, signal, calls, noise, p_pos, log_len):
     cum = np.zeros(y.size + 1)
     rk.terms_from(y, signal, calls, noise.floor, noise.shot, noise.ref, p_pos, log_len, 0,
-                  y.size, 0.0, cum)
+                  y.size, 0.0, cum, 0.0)
     return np.diff(cum)
 
 
@@ -39,7 +39,7 @@ def test_leak_and_slope_bound_the_change_of_the_rest(par, sigma, seed):
     y, noise = _phased_read(rng, n, *par, sigma)
     start = np.clip(np.rint(y), 0, reads.MAX_CALL).astype(np.int64)
     prior = reads.Prior.of(start, flows)
-    args = (*par, prior.comp, prior.log_len, noise.floor, noise.shot, noise.ref)
+    args = (*par, prior.comp, prior.log_len, noise.floor, noise.shot, noise.ref, 0.0)
     _, s_cur, calls = rk._score(y, flows, start, *args)
     p_pos = reads.Prior(prior.comp, prior.log_len).p_pos(calls, flows)
     t_cur = _terms(y, s_cur, calls, noise, p_pos, prior.log_len)
@@ -96,10 +96,11 @@ def test_likeliest_is_call_of_and_the_table_is_context_prior():
         h0 = rng.integers(0, top + 1)
         y = [a * h0 + b, a * (h0 + 0.5) + b, rng.uniform(-1, 10)][i % 3]
         p = rng.uniform(rk.P_POS_MIN, 1 - rk.P_POS_MIN)
-        want = rk.call_of(y, a, b, floor, shot, ref, p, log_len, row)
+        beta = (0.0, 0.09, rng.uniform(0, 0.3))[i % 3]  # the empty-flow light
+        want = rk.call_of(y, a, b, floor, shot, ref, p, log_len, row, beta)
         for guess in (want, int(rng.integers(0, top + 1))):
             got = rk.likeliest(y, a, b, floor, shot, ref, p, np.log(1 - p), np.log(p), log_len,
-                               guess, row)
+                               guess, row, beta)
             agree += got == want
     assert agree == 40000
     n = 500
@@ -112,10 +113,12 @@ def test_likeliest_is_call_of_and_the_table_is_context_prior():
     assert np.array_equal(p_pos, rk.context_prior(calls, flows, comp, 4))
     y, signal = rng.uniform(-0.5, 4, n), rng.uniform(0, 4, n)
     cum_a, cum_b = np.zeros(n + 1), np.zeros(n + 1)
-    rk.terms_from(y, signal, calls, 0.01, 0.01, 0.001, p_pos, log_len, 0, n, 0.0, cum_a)
-    rk.terms_tab(y, signal, calls, flows, allow, l0, l1, 0.01, 0.01, 0.001, log_len, 0, n, 0.0,
-                 cum_b)
-    assert np.array_equal(cum_a, cum_b)
+    for beta in (0.0, 0.088):
+        rk.terms_from(y, signal, calls, 0.01, 0.01, 0.001, p_pos, log_len, 0, n, 0.0, cum_a,
+                      beta)
+        rk.terms_tab(y, signal, calls, flows, allow, l0, l1, 0.01, 0.01, 0.001, log_len, 0, n,
+                     0.0, cum_b, beta)
+        assert np.array_equal(cum_a, cum_b)
 
 
 
@@ -141,7 +144,7 @@ def test_apart_bounds_every_later_flows_light(par, sigma, seed):
     y, noise = _phased_read(rng, n, *par, sigma)
     start = np.clip(np.rint(y), 0, reads.MAX_CALL).astype(np.int64)
     prior = reads.Prior.of(start, flows)
-    args = (*par, prior.comp, prior.log_len, noise.floor, noise.shot, noise.ref)
+    args = (*par, prior.comp, prior.log_len, noise.floor, noise.shot, noise.ref, 0.0)
     _, s_cur, calls = rk._score(y, flows, start, *args)
     tmpl = rk.template_of(calls, flows)
     pre, lip = np.zeros((bd.SPANS.size, n + 1)), np.empty(n + 1)

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from chiptwin.cli import main
+from chiptwin.kinetics.pyro import flow_incorporations
 from chiptwin.report.reads_call import call_file, write_reads_outputs
 from chiptwin.report.sff import SffRead, write_sff
 from tests.conftest import real_data, require_module
@@ -61,14 +62,14 @@ def test_454_calls_agree_with_the_instruments(caller, first, least, n):
 
 
 def _synthetic_sff(path, rng):
-    """Twelve 100-flow reads: ten clean (key TCAG, then a random template), one whose first
-    flow is empty (fails the key), one of noise after the key (no base at Q20)."""
+    """Twelve 100-flow reads: ten clean (key TCAG, then a random template read through the
+    flow order, so that each flowgram is one a template can make), one whose first flow is
+    empty (fails the key), one of noise after the key (no base at Q20)."""
     order = "TACG" * 25
     reads = []
     for j in range(12):
-        calls = np.zeros(100, dtype=np.int64)
-        calls[[0, 2, 5, 7]] = 1  # TCAG
-        calls[8:] = rng.choice([0, 0, 1, 1, 2], 92)
+        template = "TCAG" + "".join(rng.choice(list("ACGT"), 120))
+        calls = flow_incorporations(template, order, 100)[1]
         y = calls + rng.normal(0, 0.05, 100)
         if j == 10:
             y[0] = 0.02  # no T: the key fails
