@@ -219,3 +219,18 @@ def test_zp_phasing_is_summarised_in_the_notes_and_a_bad_one_left_out(tmp_path):
     notes = read_flowgrams(_bam(tmp_path / "zp.bam", reads)).notes
     assert ("3 reads carry the instrument's phasing (ZP), not used: median carry-forward "
             "0.0100, incomplete extension 0.0050, droop 0.0010") in notes
+
+
+def test_a_read_with_no_base_after_the_key_and_zf_0_is_read(tmp_path):
+    """Torrent Suite writes ZF 0 for a read with no base after the key (an unfiltered BAM holds
+    such reads): it is read, not refused as a key that does not match; a read with bases and
+    ZF 0 still is."""
+    (name, seq, fz, zf), = _reads(np.random.default_rng(7), 1)
+    signals = ("FZ", array("H", fz.tolist()))
+    empty = _bam(tmp_path / "empty.bam", [(name, seq, [("ZF", zf), signals]),
+                                          ("none", "", [("ZF", 0), ("FZ", array("H", [100] * 8))])])
+    got = read_flowgrams(empty)
+    assert [r.name for r in got.reads] == [name, "none"] and got.reads[1].values.size == 8
+    bad = _bam(tmp_path / "bad.bam", [(name, seq, [("ZF", 0), signals])])
+    with pytest.raises(ScenarioError, match="ZF"):
+        read_flowgrams(bad)
