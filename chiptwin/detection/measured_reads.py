@@ -211,9 +211,9 @@ def call(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, caller: str) -> Rea
     """One read by ``caller`` (``round`` or ``dephase``); with a :class:`MeasuredNoise`, its
     qualities from the posterior with the t likelihood (:func:`tail_posterior`)."""
     y = np.asarray(y, dtype=np.float64)
-    # already phase-corrected values: their 0-mer level is the vendor's (:func:`caller_input`
-    # moves it for ``dephase``); estimating an empty-flow light there changed no call for the
-    # better (Ion PGM set, dephase: 1,188 errors with it, 1,185 without)
+    # already phase-corrected values: their 0-mer level is the vendor's, which
+    # :func:`caller_input` moves to 0 for ``dephase``; the empty-flow light term finds nothing
+    # there (Ion PGM set, dephase: 1,177 errors with it and without) and is left out
     call = call_dephased if caller == "dephase" else call_rounded
     read = call(y, flows, noise, empty_light=False)
     if not isinstance(noise, MeasuredNoise) or not np.isfinite(noise.dof):

@@ -43,8 +43,8 @@ def test_round_on_ion_flow_signals_makes_the_instruments_calls(ion_round):
 
 def test_dephase_leaves_phase_corrected_flowgrams_as_they_are():
     """The phase-correcting caller on flow values already corrected: no phasing estimated on
-    most reads, and no more errors than the instrument's than a few (60 reads: 171 against
-    164; all 449: 1,185 against 1,193)."""
+    most reads, and no more errors than the instrument's than a few (60 reads: 168 against
+    164; all 449: 1,177 against 1,193)."""
     s = call_file(real_data("ion", "b7_295_chunk.bam"), caller="dephase", first=60).summary
     assert s["phasing_estimated_zero"] >= 50
     assert s["twin_vs_truth"]["errors"] <= 1.1 * s["instrument_vs_truth"]["errors"]
