@@ -260,7 +260,7 @@ EMPTY_LIGHT_GRID = np.array([0.0, 0.02, 0.04, 0.06, 0.08, 0.1, 0.12, 0.15, 0.2, 
 besides the phasing leak. 454's phase-corrected values leave empty flows near +0.09 (GS FLX
 0.088 in the PyroNoise profiles, Quince et al., Nature Methods 6:639, 2009) while 1- to 4-mers
 sit within 0.013 of their length; a caller without it reads that light as carry-forward (λ 1.5 %
-for the twin's 1 % under the 454 FLX chemistry) and scales the read 2.4 % high."""
+for the twin's 1 % under the 454 FLX chemistry)."""
 
 
 def _descend(grid: np.ndarray, start: float, score) -> float:
@@ -290,9 +290,9 @@ PHASING_PENALTY = 0.5
 def estimate_phasing(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: np.ndarray,
                      prior: Prior, n_fit: int, start: tuple[float, float, float, float],
                      empty_light: bool = True) -> tuple[float, float, float, float]:
-    """(ε, λ, δ, β) by coordinate descent over :data:`EMPTY_LIGHT_GRID`, :data:`LAMBDA_GRID`,
-    :data:`EPS_GRID` and :data:`DROOP_GRID`, then λ and β again, each a local walk from the
-    current value; each point is scored by the likelihood of the first ``n_fit`` flows after
+    """(ε, λ, δ, β) by coordinate descent over :data:`LAMBDA_GRID`, :data:`EPS_GRID`,
+    :data:`DROOP_GRID` and :data:`EMPTY_LIGHT_GRID`, then λ and β again, each a local walk from
+    the current value; each point is scored by the likelihood of the first ``n_fit`` flows after
     re-calling them (:data:`SCORE_STEPS` dephasing steps from ``calls``), plus
     :data:`PHASING_PENALTY` per parameter above 0. β is walked after the phasing and again after
     λ's second walk (the empty flows' own light, left to λ, reads as carry-forward); without

@@ -22,11 +22,11 @@ With a flow-value model (``[assay] chemistry`` or its keys,
 
 The empty flows' light stays in the values the dephase caller reads, and the caller estimates it
 per read as a term of its model (:data:`chiptwin.detection.reads.EMPTY_LIGHT_GRID`): left out,
-it read that light as carry-forward (λ 1.5 % for the scene's 1 %) and scaled the read 2.4 %
-high. Moving each read's 0-mer level to 0 first instead (as
-:func:`chiptwin.detection.measured_reads.caller_input` does for measured, already
-phase-corrected flowgrams) made ``pyro_454_flx``'s phased reads worse (read accuracy 0.83 →
-0.65–0.79); the model term made them better (0.83 → 0.85, Q20 length median 171.5 → 184.5).
+it read that light as carry-forward (λ 1.5 % for the scene's 1 %). Moving each read's 0-mer
+level to 0 first instead (as :func:`chiptwin.detection.measured_reads.caller_input` does for
+measured, already phase-corrected flowgrams) made ``pyro_454_flx``'s phased reads worse (read
+accuracy 0.83 → 0.65–0.79); the model term made them better (0.83 → 0.85, Q20 length median
+171.5 → 184.5).
 """
 
 from __future__ import annotations
