@@ -72,14 +72,16 @@ NJIT = njit(**NJIT_OPTIONS)
 NJIT_INLINE = njit(inline="always", **NJIT_OPTIONS)
 
 #: ``@NJIT_NORC``: the same without numba's reference counting (its runtime, NRT, off: the
-#: ``_nrt`` option of numba's CPU target). For the loops that draw random numbers and nothing
-#: else. An inlined sampler whose rare path is a call (the ziggurat's edges, Ahrens & Dieter's
-#: steps P–H) leaves an atomic increment and decrement of the source array's reference count
-#: around *every* draw, which numba's pruning does not remove (the call may raise): 9 of a
-#: normal's 11 ns, 18 of a Poisson count and a normal's 33 ns (one thread, measured side by
-#: side; ``benchmarks/bench_sensor_chain.py``). Such a function may not allocate (no
-#: ``np.empty``, no ``.copy()``): its caller, an :data:`NJIT` kernel, allocates and passes the
-#: arrays in. The draws are the same bits.
+#: ``_nrt`` option of numba's CPU target). For the loops that draw random numbers, and for the
+#: base caller's per-flow steps (the phasing model's flow step, the hill climb's scoring). An
+#: inlined sampler whose rare path is a call (the ziggurat's edges, Ahrens & Dieter's steps
+#: P–H) leaves an atomic increment and decrement of the source array's reference count around
+#: *every* draw, which numba's pruning does not remove (the call may raise): 9 of a normal's
+#: 11 ns, 18 of a Poisson count and a normal's 33 ns (one thread, measured side by side;
+#: ``benchmarks/bench_sensor_chain.py``); the caller's steps, run millions of times a read set,
+#: paid the same pair on every call. Such a function may not allocate (no ``np.empty``, no
+#: ``.copy()``): its caller, an :data:`NJIT` kernel, allocates and passes the arrays in. The
+#: results are the same bits.
 NJIT_NORC = njit(_nrt=False, **NJIT_OPTIONS)
 
 # Inlining the samplers' overloads (chiptwin.pixel._random) at numba's IR level trips a pedantic

@@ -79,8 +79,8 @@ def mixed_posterior(y: np.ndarray, tmpl: np.ndarray, flows: np.ndarray, calls: n
     """The posterior averaged over every (ε, λ, δ) of the three grids' values: each model's
     flowgram of ``tmpl`` (droop only scales it, so one model per ε, λ), its variance widened by
     :func:`window_inflation` times ``widen``, weighted by the read's likelihood under it. A
-    model of weight below ``w_min`` moves no probability by more than that and is left out
-    (on a 400-flow read all but one of the 27 weigh less than 1e-6). Empty flows (``calls``
+    model of weight below ``w_min`` is left out and the others' weights renormalised (on a
+    400-flow read all but one of the 27 weigh less than 1e-6). Empty flows (``calls``
     0) carry the empty-flow light ``beta`` besides their signal."""
     n, m = y.size, log_len.size
     n_m = eps_v.size * lam_v.size * droop_v.size
@@ -108,12 +108,16 @@ def mixed_posterior(y: np.ndarray, tmpl: np.ndarray, flows: np.ndarray, calls: n
                 i += 1
     w = np.exp(logw - logw.max())
     w /= w.sum()
+    kept = 0.0
+    for i in range(n_m):
+        if w[i] >= w_min:
+            kept += w[i]
     post = np.zeros((n, m))
     b = np.empty(n)
     for i in range(n_m):
         if w[i] >= w_min:
             for k in range(n):
                 b[k] = signal[i, k] - a[i, k] * calls[k]
-            post += w[i] * posterior_kernel(y, a[i], b, floor, shot, ref, p_pos, log_len,
-                                            infl[i], beta)
+            post += (w[i] / kept) * posterior_kernel(y, a[i], b, floor, shot, ref, p_pos,
+                                                     log_len, infl[i], beta)
     return post

@@ -1,5 +1,6 @@
-"""numba kernels behind :mod:`chiptwin.detection.reads`: the posterior of each flow's call and
-the left-to-right dephasing sweep and the hill climb of a whole read's likelihood.
+"""numba kernels behind :mod:`chiptwin.detection.reads`: a read's likelihood, each flow's
+likeliest length, the left-to-right dephasing sweep and the hill climb of a whole read's
+likelihood (the posterior the qualities come from: :mod:`chiptwin.detection._posterior_kernels`).
 
 Arrays and scalars in, arrays out; no validation (the public functions check once). The numpy
 reference of each is in ``tests/detection/test_reads.py``; the sweep and the hill climb as they
@@ -518,7 +519,10 @@ def _score_from(y, flows, eps, lam, droop, run, p_tab, l0, l1, log_len, floor, s
                             + 2.0 * TINY * run.shape[0] * (n - ke))  # strands dropped
                 for i in range(SPANS.size):
                     if e <= SPANS[i]:
-                        if total + rest - e * (pre[i, n] - pre[i, ke]) - slack >= nll - 1e-9:
+                        # the flows left's slopes: a difference of prefix sums, widened by
+                        # its rounding (relative to the whole prefix, not the tail)
+                        tail = pre[i, n] - pre[i, ke] + 4.0 * n * 2.0**-53 * pre[i, n]
+                        if total + rest - e * tail - slack >= nll - 1e-9:
                             return -1
                         break
         k = ke
@@ -562,7 +566,9 @@ def _largest_first(z: np.ndarray, z_min: float, m: int) -> np.ndarray:  # pragma
     """The first ``m`` of ``np.argsort(-z)``, among the ``z ≥ z_min``: kept sorted by
     insertion while they are all distinct (then the order is the sort's), else the whole sort
     (ties keep its order)."""
-    top = np.empty(m, dtype=np.int64)
+    top = np.empty(max(m, 0), dtype=np.int64)
+    if m <= 0:
+        return top
     cnt = 0
     for k in range(z.size):
         v = z[k]

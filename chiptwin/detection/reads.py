@@ -291,12 +291,13 @@ def estimate_phasing(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: 
                      prior: Prior, n_fit: int, start: tuple[float, float, float, float],
                      empty_light: bool = True) -> tuple[float, float, float, float]:
     """(ε, λ, δ, β) by coordinate descent over :data:`LAMBDA_GRID`, :data:`EPS_GRID`,
-    :data:`DROOP_GRID` and :data:`EMPTY_LIGHT_GRID`, then λ and β again, each a local walk from
+    :data:`DROOP_GRID` and :data:`EMPTY_LIGHT_GRID`, then each once more, each a local walk from
     the current value; each point is scored by the likelihood of the first ``n_fit`` flows after
     re-calling them (:data:`SCORE_STEPS` dephasing steps from ``calls``), plus
-    :data:`PHASING_PENALTY` per parameter above 0. β is walked after the phasing and again after
-    λ's second walk (the empty flows' own light, left to λ, reads as carry-forward); without
-    ``empty_light`` it stays at its start."""
+    :data:`PHASING_PENALTY` per parameter above 0. β comes after the phasing and the phasing is
+    walked again after it: the empty flows' own light, before β takes it, reads as carry-forward
+    and incomplete extension, and droop trades with ε (once: droop 0.05 % for the FLX scene's
+    0.1 %). Without ``empty_light`` β stays at its start."""
     yy, ff, cc = y[:n_fit], flows[:n_fit], calls[:n_fit]
     par = list(start)
     cost = PHASING_PENALTY * np.log(max(n_fit, 1))
@@ -308,7 +309,7 @@ def estimate_phasing(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: 
                         beta=trial[3])[1] + cost * sum(p > 0 for p in trial))
 
     for i, grid in ((1, LAMBDA_GRID), (0, EPS_GRID), (2, DROOP_GRID), (3, EMPTY_LIGHT_GRID),
-                    (1, LAMBDA_GRID), (3, EMPTY_LIGHT_GRID)):
+                    (1, LAMBDA_GRID), (0, EPS_GRID), (2, DROOP_GRID), (3, EMPTY_LIGHT_GRID)):
         if i != 3 or empty_light:
             par[i] = _descend(grid, par[i], lambda v, i=i: score(i, v))
     return par[0], par[1], par[2], par[3]
@@ -351,7 +352,8 @@ def read_model(y: np.ndarray, flows: np.ndarray, noise: FlowNoise,
         prior = Prior.of(calls, flows)
         # the read's 1-mer level from the flows just fitted, again once the longer prefix has
         # settled the phasing (a spurious ε on the first 96 flows scales the read 2 % high)
-        y, noise, g = rescale(y, flows, noise, calls, est[:3], min(n_fit, y.size))
+        y, noise, g = rescale(y, flows, noise, calls, est[:3], min(n_fit, y.size), est[3])
+        est = (*est[:3], est[3] / g)  # the empty flows' light, in the new 1-mer units
         gain *= g
     par, beta = est[:3], est[3]
     calls = polish(y, flows, noise, par, calls, prior, beta)
@@ -397,6 +399,11 @@ def keep_phasing(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: np.n
     return calls, par
 
 
+#: The largest flow value :func:`flat_floor` scans whole-number light up to (1-mers): four
+#: times the longest run the caller resolves; a read with a larger one gets no floor (−∞).
+FLAT_FLOOR_MAX = 4 * MAX_CALL
+
+
 def flat_floor(y: np.ndarray, noise: FlowNoise, beta: float = 0.0) -> float:
     """The least negative log-posterior any call set scores without phasing (ε = λ = δ = 0):
     each flow's light is then a whole number ``s`` of bases (``beta``, the empty-flow light,
@@ -407,6 +414,8 @@ def flat_floor(y: np.ndarray, noise: FlowNoise, beta: float = 0.0) -> float:
     flows' light fall between whole numbers and this alone exceeds the phased calls' score, so
     the flat re-call of :func:`keep_phasing` (its sweep and hill climb) need not run."""
     yy = np.maximum(np.asarray(y, dtype=np.float64), 0.0)
+    if beta < 0 or not yy.max(initial=0.0) <= FLAT_FLOOR_MAX:
+        return -np.inf  # the argument needs β ≥ 0; far beyond the caller's lengths, no floor
     s = np.arange(int(np.ceil(yy.max(initial=0.0))) + 1, dtype=np.float64)
     s[0] = beta
     v = noise.floor + noise.shot * s + noise.ref * s * s
@@ -417,14 +426,15 @@ def flat_floor(y: np.ndarray, noise: FlowNoise, beta: float = 0.0) -> float:
 
 
 def rescale(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: np.ndarray,
-            par: tuple[float, float, float], n_fit: int) -> tuple[np.ndarray, FlowNoise, float]:
+            par: tuple[float, float, float], n_fit: int, beta: float = 0.0
+            ) -> tuple[np.ndarray, FlowNoise, float]:
     """The read's 1-mer level re-estimated from its first ``n_fit`` called flows (least squares
-    of the values on the model), the values divided by it, and the noise moved with them: the
-    key's three 1-mers set one scale for the whole read, whose error grows with the homopolymer
-    (σ ∝ h, :class:`FlowNoise` ``ref``); the read's many called flows pin it down, leaving
-    the least-squares estimate's own variance."""
+    of the values on the model, the empty flows' light ``beta`` in it), the values divided by
+    it, and the noise moved with them: the key's three 1-mers set one scale for the whole read,
+    whose error grows with the homopolymer (σ ∝ h, :class:`FlowNoise` ``ref``); the read's many
+    called flows pin it down, leaving the least-squares estimate's own variance."""
     signal, _, _ = phase_model(calls, flows, *par)
-    s, v = signal[:n_fit], y[:n_fit]
+    s, v = (signal + np.where(calls == 0, beta, 0.0))[:n_fit], y[:n_fit]
     den = float(np.dot(s, s))
     if den <= 0:
         return y, noise, 1.0
@@ -504,9 +514,9 @@ def final_posterior(y: np.ndarray, flows: np.ndarray, noise: FlowNoise, calls: n
                            MODEL_INFLATION, MIN_WEIGHT, float(beta))
 
 
-#: The least weight a phasing neighbour's posterior is mixed in with (:func:`final_posterior`):
-#: one below it moves no probability by more than 1e-12, eight decades under the 1e-4 at which
-#: the qualities stop (:data:`Q_MAX`).
+#: The least weight a phasing neighbour's posterior is mixed in with (:func:`final_posterior`;
+#: the others' renormalised): the 26 others together move no probability by more than 3e-11,
+#: seven decades under the 1e-4 at which the qualities stop (:data:`Q_MAX`).
 MIN_WEIGHT = 1e-12
 
 

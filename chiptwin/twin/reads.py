@@ -25,8 +25,8 @@ per read as a term of its model (:data:`chiptwin.detection.reads.EMPTY_LIGHT_GRI
 it read that light as carry-forward (λ 1.5 % for the scene's 1 %). Moving each read's 0-mer
 level to 0 first instead (as :func:`chiptwin.detection.measured_reads.caller_input` does for
 measured, already phase-corrected flowgrams) made ``pyro_454_flx``'s phased reads worse (read
-accuracy 0.83 → 0.65–0.79); the model term made them better (0.83 → 0.85, Q20 length median
-171.5 → 184.5).
+accuracy 0.83 → 0.65–0.79); the model term made them better (0.83 → 0.87, Q20 length median
+171.5 → 188).
 """
 
 from __future__ import annotations

@@ -1,9 +1,11 @@
 """The dephasing caller as first written: the whole flowgram predicted again for every sweep
 step and hill-climb candidate (from flow 0, on the phasing model's kernels as first written,
 kept below), every phasing neighbour's posterior computed, the read always called again without
-phasing. The slow, obvious reference the fast caller (:mod:`chiptwin.detection._read_kernels`,
-:mod:`chiptwin.detection.reads`) is held to (same calls, same likelihoods), and the baseline
-``benchmarks/bench_long_reads.py`` times it against."""
+phasing. The per-flow likelihood and posterior kernels (``nll_kernel``, ``posterior_kernel``),
+the prior and the rescale are shared with the fast caller. The slow, obvious reference the fast
+caller (:mod:`chiptwin.detection._read_kernels`, :mod:`chiptwin.detection.reads`) is held to
+(same calls, same likelihoods), and the baseline ``benchmarks/bench_long_reads.py`` times it
+against."""
 
 from __future__ import annotations
 

@@ -20,14 +20,14 @@ from tests.detection import naive_caller as naive
 
 #: sha256 (first 16 hex digits) of every site's calls (int64, sites × flows), recorded before
 #: the incremental kernels replaced the naive ones (the chip model as of that commit) and held
-#: through every speed-up since. pyro_long_read's re-recorded once, when the caller's model
-#: gained the empty-flow light and the second estimate of the read's 1-mer level (a change of
-#: model, not of speed: read accuracy 0.935 → 0.931, Q20 length median 204 either way; on
-#: pyro_454_flx 0.832 → 0.848 and 171.5 → 184.5); pyro_1fmol's calls did not move.
+#: through every speed-up since. pyro_long_read's re-recorded for a change of the caller's model
+#: (the empty-flow light, a second walk of the phasing, a second estimate of the read's 1-mer
+#: level), not of speed: read accuracy 0.935 → 0.931, Q20 length median 204 either way (on
+#: pyro_454_flx 0.832 → 0.866 and 171.5 → 188); pyro_1fmol's calls did not move.
 BUNDLED_CALLS = {
     ("pyro_1fmol", ()): "eaa2ac55b4b6f8d9",
     ("pyro_1fmol", ('assay.caller="dephase"',)): "fe0e6b05ed872a96",
-    ("pyro_long_read", ()): "b5818990f696f2e5",
+    ("pyro_long_read", ()): "0a184ccb244ff408",
 }
 
 
@@ -141,35 +141,42 @@ def test_whole_caller_matches_the_first_written_caller(par, sigma):
         finally:
             naive.restore(reads, old)
         assert np.array_equal(fast.calls, slow.calls)
-        assert (fast.eps, fast.lam, fast.droop) == (slow.eps, slow.lam, slow.droop)
+        assert (fast.eps, fast.lam, fast.droop, fast.empty_light) == (
+            slow.eps, slow.lam, slow.droop, slow.empty_light)
         np.testing.assert_allclose(fast.posterior, slow.posterior, rtol=0, atol=1e-9)
         flat_won += not any((fast.eps, fast.lam, fast.droop))
     assert flat_won >= (2 if par == (0.0, 0.0, 0.0) else 0)
 
 
-@pytest.mark.parametrize(("seed", "par"), [(0, (0.004, 0.02, 0.001)), (1, (0.002, 0.01, 0.0)),
-                                           (2, (0.0, 0.0, 0.0)), (3, (0.0, 0.0, 0.0))])
-def test_flat_floor_bounds_every_unphased_call_set(seed, par):
+@pytest.mark.parametrize(("seed", "par", "beta"), [
+    (0, (0.004, 0.02, 0.001), 0.0), (1, (0.002, 0.01, 0.0), 0.0), (2, (0.0, 0.0, 0.0), 0.0),
+    (3, (0.0, 0.0, 0.0), 0.0), (4, (0.0, 0.0, 0.0), 0.09), (5, (0.002, 0.01, 0.001), 0.09)])
+def test_flat_floor_bounds_every_unphased_call_set(seed, par, beta):
     """``flat_floor`` is below the score of any call set without phasing: the flat sweep's and
-    hill climb's, the rounded and floored values', one drawn at random; on a read without
-    phasing it is within a nat a flow of the best of them (the prior's share is bounded, not
-    known), so it is not vacuous."""
+    hill climb's, the rounded and floored values', one drawn at random, with and without an
+    empty-flow light ``beta`` (in the read and in the model); on a read without phasing it is
+    within a nat a flow of the best of them (the prior's share is bounded, not known), so it
+    is not vacuous; a negative ``beta`` or a value far beyond the caller's lengths gets no
+    floor (−∞)."""
     rng = np.random.default_rng(seed)
     n = 200
     flows = phasing.flow_indices("TACG", n)
     y, noise = _phased_read(rng, n, *par, 0.03)
     y[np.abs(y) < 0.2] *= -1.0  # empty flows read below 0 too: the floor takes them as 0
-    floor = reads.flat_floor(y, noise)
+    y[np.abs(y) < 0.2] += beta
+    floor = reads.flat_floor(y, noise, beta)
     prior = reads.Prior.of(np.clip(np.rint(y), 0, reads.MAX_CALL).astype(np.int64), flows)
     sets = [np.clip(np.rint(y), 0, reads.MAX_CALL).astype(np.int64),
             np.clip(np.floor(np.maximum(y, 0)), 0, reads.MAX_CALL).astype(np.int64),
             rng.integers(0, 4, n)]
-    flat = reads.dephase(y, flows, noise, 0.0, 0.0, 0.0, sets[0], prior)[0]
-    sets.append(reads.polish(y, flows, noise, (0.0, 0.0, 0.0), flat, prior))
-    scores = [reads.read_nll(y, flows, noise, c, (0.0, 0.0, 0.0), prior) for c in sets]
+    flat = reads.dephase(y, flows, noise, 0.0, 0.0, 0.0, sets[0], prior, beta=beta)[0]
+    sets.append(reads.polish(y, flows, noise, (0.0, 0.0, 0.0), flat, prior, beta))
+    scores = [reads.read_nll(y, flows, noise, c, (0.0, 0.0, 0.0), prior, beta) for c in sets]
     assert min(scores) >= floor
     if not any(par):
         assert min(scores) < floor + n
+    assert reads.flat_floor(y, noise, -0.01) == -np.inf
+    assert reads.flat_floor(np.r_[y, 1e7], noise, beta) == -np.inf
 
 
 def test_the_least_term_bounds_every_flows_term():
