@@ -189,3 +189,28 @@ def test_apart_bounds_every_later_flows_light(par, sigma, seed):
                     bounded += 1
     assert checked > 50 and bounded > 10
     assert near > 0.1 * checked  # apart is no loose stand-in for the strands moved
+
+
+def test_the_largest_residuals_come_in_the_sorts_order():
+    """The hill climb's flows to try: the first ``m`` of ``argsort(-z)`` among ``z ≥ z_min``,
+    by insertion — with ties, NaN and infinities (then the whole sort decides, as it did), and
+    none at all for ``m = 0``."""
+    rng = np.random.default_rng(9)
+    for i in range(3000):
+        n = int(rng.integers(0, 60))
+        z = rng.uniform(0, 10, n)
+        if i % 3 == 0:
+            z = np.round(z, 1)  # ties
+        if i % 7 == 0 and n:
+            z[rng.integers(0, n)] = [np.nan, np.inf][i % 2]
+        m, z_min = int(rng.integers(0, 30)), float(rng.uniform(0, 6))
+        idx = np.flatnonzero(z >= z_min)
+        sub = np.sort(z[idx])
+        tied = np.any(sub[1:] == sub[:-1])
+        want = (np.argsort(-z, kind="quicksort")[:idx.size] if tied
+                else idx[np.argsort(-z[idx])])[:m]
+        got = rk._largest_first(z, z_min, m)
+        if tied:  # ties keep the sort's order: the same values, in the same order
+            assert np.array_equal(z[got], z[want])
+        else:
+            assert np.array_equal(got, want)
