@@ -81,6 +81,7 @@ _MEM = ("answer", 0, "least", "chip.memory.capacity_bits")
 _LOD = ("answer", 0, "least", "assay.dna_fmol")
 _ARRAY = ("array",)
 _SB = ("sensitivity", "results", 0)  # a sensitivity study's (only) section
+_RL13 = ("answer", {"condition": "chip.adc.bits = 13"})  # read_length_pyro at 13 bits
 
 
 def _ADC(comparator_uV: float) -> tuple:  # noqa: N802 (a path, read as a constant)
@@ -135,6 +136,21 @@ ENTRIES: tuple[Entry, ...] = (
           lambda v, e: between(v, "fmol"), cheap=False),
     Entry("sensitivity_lod.decided_by", "study", "sensitivity_lod", (*_SB, "verdict"),
           lambda v, e: v.removeprefix("decided by "), cheap=False),
+    Entry("read_length_pyro.least_13", "study", "read_length_pyro",
+          (*_RL13, "least", "assay.dna_fmol", "between"), lambda v, e: between(v, "fmol"),
+          cheap=False),
+    Entry("read_length_pyro.q20_13", "study", "read_length_pyro",
+          (*_RL13, "bounds", "q20_read_length >= 200"),
+          lambda v, e: f"{v['estimate']:.1f} bases (one-sided 95 % lower bound {v['bound']:.0f})",
+          cheap=False),
+    Entry("read_length_pyro.q20_13_at_0.03", "study", "read_length_pyro",
+          ("points", {"params": {"assay.dna_fmol": 0.03, "chip.adc.bits": 13}}, "metrics",
+           "q20_read_length", "value"), "{v:.0f} bases", cheap=False),
+    Entry("read_length_pyro.bits_10", "study", "read_length_pyro",
+          ("answer", {"condition": "chip.adc.bits = 10"}, "statement"),
+          lambda v, e: v.replace("at 95% confidence", "at 95 % confidence"), cheap=False),
+    Entry("read_length_pyro.wall_time", "study", "read_length_pyro", ("wall_time_s",), wall,
+          cheap=False),
 )
 
 
