@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from chiptwin._numba import NJIT, NJIT_NORC
+from chiptwin._numba import NJIT, NJIT_INLINE, NJIT_NORC
 from chiptwin.detection._bounds import (
     LEAK_SPAN,
     SPANS,
@@ -104,6 +104,18 @@ def context_prior(calls: np.ndarray, flows: np.ndarray, comp: np.ndarray,
     return p
 
 
+@NJIT_INLINE
+def flow_term(yk: float, light: float, lp: float, floor: float, shot: float,
+              ref: float) -> float:  # pragma: no cover - compiled
+    """One flow's share of the negative log-posterior: Normal(``light``, floor + shot·m + ref·m²)
+    at ``yk``, less its log prior ``lp``. Every sum of these terms adds them in flow order, so
+    sums over the same flows are the same bits."""
+    mp = max(light, 0.0)
+    var = floor + shot * mp + ref * mp * mp
+    d = yk - light
+    return 0.5 * d * d / var + 0.5 * math.log(var) - lp
+
+
 @NJIT
 def nll_kernel(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, floor: float, shot: float,
                ref: float, p_pos: np.ndarray, log_len: np.ndarray, n_score: int,
@@ -115,12 +127,9 @@ def nll_kernel(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, floor: floa
     top = log_len.size - 1
     for k in range(n_score):
         sk = signal[k] + beta if calls[k] == 0 else signal[k]
-        mp = max(sk, 0.0)
-        var = floor + shot * mp + ref * mp * mp
-        d = y[k] - sk
         h = min(calls[k], top)
         lp = math.log(1.0 - p_pos[k]) if h == 0 else math.log(p_pos[k]) + log_len[h]
-        total += 0.5 * d * d / var + 0.5 * math.log(var) - lp
+        total += flow_term(y[k], sk, lp, floor, shot, ref)
     return total
 
 
@@ -183,12 +192,9 @@ def terms_from(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, floor: floa
     top = log_len.size - 1
     for k in range(k0, k1):
         sk = signal[k] + beta if calls[k] == 0 else signal[k]
-        mp = max(sk, 0.0)
-        var = floor + shot * mp + ref * mp * mp
-        d = y[k] - sk
         h = min(calls[k], top)
         lp = math.log(1.0 - p_pos[k]) if h == 0 else math.log(p_pos[k]) + log_len[h]
-        total += 0.5 * d * d / var + 0.5 * math.log(var) - lp
+        total += flow_term(y[k], sk, lp, floor, shot, ref)
         cum[k + 1] = total
     return total
 
@@ -204,12 +210,9 @@ def terms_tab(y: np.ndarray, signal: np.ndarray, calls: np.ndarray, flows: np.nd
     top = log_len.size - 1
     for k in range(k0, k1):
         sk = signal[k] + beta if calls[k] == 0 else signal[k]
-        mp = max(sk, 0.0)
-        var = floor + shot * mp + ref * mp * mp
-        d = y[k] - sk
         h = min(calls[k], top)
         lp = l0[flows[k], allow[k]] if h == 0 else l1[flows[k], allow[k]] + log_len[h]
-        total += 0.5 * d * d / var + 0.5 * math.log(var) - lp
+        total += flow_term(y[k], sk, lp, floor, shot, ref)
         cum[k + 1] = total
     return total
 

@@ -29,23 +29,31 @@ def _terms(y, signal, calls, noise, p_pos, log_len):
     return np.diff(cum)
 
 
-@pytest.mark.parametrize(("par", "sigma", "seed"), [
-    ((0.002, 0.01, 0.001), 0.05, 0), ((0.008, 0.04, 0.002), 0.1, 1),
-    ((0.004, 0.02, 0.0), 0.3, 2)])
-def test_leak_and_slope_bound_the_change_of_the_rest(par, sigma, seed):
-    rng = np.random.default_rng(seed)
-    n = 240
+def _current_calls(rng, n, par, sigma):
+    """A read drawn from the phasing model, its rounded calls re-derived as the model's flow
+    program (the hill climb's current calls), their light, and the slope bounds over it:
+    (y, flows, noise, prior, calls, light, pre, lip)."""
     flows = phasing.flow_indices("TACG", n)
     y, noise = _phased_read(rng, n, *par, sigma)
     start = np.clip(np.rint(y), 0, reads.MAX_CALL).astype(np.int64)
     prior = reads.Prior.of(start, flows)
     args = (*par, prior.comp, prior.log_len, noise.floor, noise.shot, noise.ref, 0.0)
     _, s_cur, calls = rk._score(y, flows, start, *args)
-    p_pos = reads.Prior(prior.comp, prior.log_len).p_pos(calls, flows)
-    t_cur = _terms(y, s_cur, calls, noise, p_pos, prior.log_len)
     lip, pre, g = np.empty(n + 1), np.zeros((bd.SPANS.size, n + 1)), np.empty((bd.SPANS.size, n))
     bd.slopes_from(y, s_cur, noise.floor, noise.shot, noise.ref, 0, g)
     bd.prefix_bounds(g, pre, lip, 0)
+    return y, flows, noise, prior, calls, s_cur, pre, lip
+
+
+@pytest.mark.parametrize(("par", "sigma", "seed"), [
+    ((0.002, 0.01, 0.001), 0.05, 0), ((0.008, 0.04, 0.002), 0.1, 1),
+    ((0.004, 0.02, 0.0), 0.3, 2)])
+def test_leak_and_slope_bound_the_change_of_the_rest(par, sigma, seed):
+    rng = np.random.default_rng(seed)
+    n = 240
+    y, flows, noise, prior, calls, s_cur, pre, lip = _current_calls(rng, n, par, sigma)
+    p_pos = reads.Prior(prior.comp, prior.log_len).p_pos(calls, flows)
+    t_cur = _terms(y, s_cur, calls, noise, p_pos, prior.log_len)
     checked, tight = 0, 0
     for k in rng.permutation(np.flatnonzero(calls > 0))[:25]:
         for d in (-1, 1):
@@ -140,17 +148,8 @@ def test_apart_bounds_every_later_flows_light(par, sigma, seed):
     times ``prefix_bounds``' sums: the bound the hill climb drops candidates on."""
     rng = np.random.default_rng(seed)
     n = 200
-    flows = phasing.flow_indices("TACG", n)
-    y, noise = _phased_read(rng, n, *par, sigma)
-    start = np.clip(np.rint(y), 0, reads.MAX_CALL).astype(np.int64)
-    prior = reads.Prior.of(start, flows)
-    args = (*par, prior.comp, prior.log_len, noise.floor, noise.shot, noise.ref, 0.0)
-    _, s_cur, calls = rk._score(y, flows, start, *args)
+    y, flows, noise, prior, calls, s_cur, pre, lip = _current_calls(rng, n, par, sigma)
     tmpl = rk.template_of(calls, flows)
-    pre, lip = np.zeros((bd.SPANS.size, n + 1)), np.empty(n + 1)
-    g = np.empty((bd.SPANS.size, n))
-    bd.slopes_from(y, s_cur, noise.floor, noise.shot, noise.ref, 0, g)
-    bd.prefix_bounds(g, pre, lip, 0)
     c_max = calls.max()
     checked, bounded, near = 0, 0, 0
     for k in rng.permutation(n)[:40]:

@@ -6,9 +6,6 @@ corrected values."""
 
 from __future__ import annotations
 
-from dataclasses import replace
-from types import SimpleNamespace
-
 import numpy as np
 import pytest
 
@@ -17,6 +14,7 @@ from chiptwin.config.cost import wall_estimate
 from chiptwin.kinetics import pyro
 from chiptwin.kinetics.chemistry import FlowModel, draw_flow_values, flow_light
 from chiptwin.twin import reads as twin_reads
+from tests.kinetics.test_long_reads import assert_each_replicate_prepares_its_own_light
 
 SCENES = "scenarios"
 
@@ -88,15 +86,10 @@ def _small_flx(*sets: str):
 def test_each_study_replicate_draws_its_own_chemistry():
     """The point's scene is prepared once; with a flow model every replicate (another seed)
     prepares its light again: the same chip (a fixed pattern seed) and another run."""
-    from chiptwin.study import engine, rows
+    from chiptwin.study import engine
 
     s = _small_flx("chip.fixed_pattern_seed=5", "assay.dna_cv=0")
-    task = SimpleNamespace(scenario=s)
-    one = rows._scene(task, replace(s, scenario=replace(s.scenario, seed=1)))[0]
-    two = rows._scene(task, replace(s, scenario=replace(s.scenario, seed=2)))[0]
-    again = rows._scene(task, replace(s, scenario=replace(s.scenario, seed=1)))[0]
-    assert not np.allclose(one.site_photons, two.site_photons)
-    assert np.array_equal(one.site_photons, again.site_photons)
+    assert_each_replicate_prepares_its_own_light(s)
     assert engine._scene_per_row(s)
     assert not engine._scene_per_row(load_scenario(f"{SCENES}/pyro_1fmol.toml"))
 

@@ -84,20 +84,24 @@ def test_site_copies_spread_is_the_cv_and_changes_with_the_chip():
     assert np.array_equal(stages.site_copies(s, 128), stages.site_copies(s, 128))
 
 
-def test_a_study_replicate_on_another_chip_redraws_the_sites_dna():
-    """vary_chip: each replicate another chip, its sites' DNA copies too (the point's scene is
-    prepared once; with dna_cv its light is prepared again per replicate)."""
+def assert_each_replicate_prepares_its_own_light(s) -> None:
+    """A study point's scene ``s`` prepared for replicates at seeds 1, 2 and 1 again: the
+    replicates' light differs, the same seed's is the same bits."""
     from dataclasses import replace
     from types import SimpleNamespace
 
     from chiptwin.study import rows
 
-    s = load_scenario(f"{SCENES}/pyro_long_read.toml",
-                      ["sites.at_pixels=[[4, 8], [2, 3]]", "assay.n_flows=20",
-                       "run.duration_s=1220", "chip.fixed_pattern_seed=-1"])
     task = SimpleNamespace(scenario=s)
-    one = rows._scene(task, replace(s, scenario=replace(s.scenario, seed=1)))[0]
-    two = rows._scene(task, replace(s, scenario=replace(s.scenario, seed=2)))[0]
-    again = rows._scene(task, replace(s, scenario=replace(s.scenario, seed=1)))[0]
+    one, two, again = (rows._scene(task, replace(s, scenario=replace(s.scenario, seed=k)))[0]
+                       for k in (1, 2, 1))
     assert not np.allclose(one.site_photons, two.site_photons)
     assert np.array_equal(one.site_photons, again.site_photons)
+
+
+def test_a_study_replicate_on_another_chip_redraws_the_sites_dna():
+    """vary_chip: each replicate another chip, its sites' DNA copies too (the point's scene is
+    prepared once; with dna_cv its light is prepared again per replicate)."""
+    assert_each_replicate_prepares_its_own_light(load_scenario(
+        f"{SCENES}/pyro_long_read.toml", ["sites.at_pixels=[[4, 8], [2, 3]]", "assay.n_flows=20",
+                                          "run.duration_s=1220", "chip.fixed_pattern_seed=-1"]))

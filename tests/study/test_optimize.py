@@ -15,9 +15,10 @@ from chiptwin.cli import main
 from chiptwin.study import load_study, run_study
 from chiptwin.study.optimize_front import pareto_mask
 from chiptwin.study.spec import study_from_dict
+from tests.conftest import require_module
 from tests.study.test_optimize_spec import STUDY, write
 
-pytest.importorskip("optuna")
+require_module("optuna", "optimize")  # skips off CI, fails under CI=true
 
 #: The grid's two keys: every bit count of the optimiser's range and 8 read noises, log-spaced
 #: over its range: 64 points, against the optimiser's 16 evaluations (a quarter).
